@@ -44,6 +44,13 @@ inline Vec3 AnyPerpendicular(const Vec3& n) {
   return n.cross(a).normalized();
 }
 
+/// The cross-product matrix: Skew(a) * b == a.cross(b).
+inline Mat3 Skew(const Vec3& v) {
+  Mat3 m;
+  m << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
+  return m;
+}
+
 /// A surface sampled as points with outward unit normals, in a body's rest frame.
 struct PointCloud {
   std::vector<Vec3> positions;

@@ -1,0 +1,115 @@
+// Collision detection between two point-based bodies (paper section 3.3).
+//
+// 1. Traverse: the two sphere trees are descended simultaneously (the larger
+//    node first) and every pair of overlapping leaves is collected. A body given
+//    as an analytic plane is traversed against the half-space instead.
+// 2. Interpenetration: for every leaf of one body that overlaps the other body,
+//    its centre (a control point) is projected onto the other body's MLS surface,
+//    built from the points of the closest overlapping leaf plus its r_eps border.
+//    A projection that leaves that border is rejected (curvature artefacts).
+//    The gap is (p - p_proj) . n(p_proj): negative means inside (eq. 4). Pairs
+//    with gap < delta_eps enter the contact space. Both directions are done:
+//    A's control points against B's surface, and B's against A's.
+//
+// Gaps are measured on the undeformed surfaces posed rigidly; deformation
+// enters the contact space through the control-point displacements (eq. 6-7).
+//
+// Contacts carry a stable key (body ids, direction and leaf id) so that the
+// solver can warm start from the previous step. Nothing here allocates once
+// the scratch and the contact buffer have their capacity.
+#pragma once
+
+#include "core/mls.h"
+#include "core/sphere_tree.h"
+#include "core/types.h"
+
+namespace gs {
+
+/// What collision detection needs of a body's geometry.
+struct CollisionShape {
+  const PointCloud* cloud = nullptr;  ///< rest-frame points (null for a plane)
+  const SphereTree* tree = nullptr;   ///< rest-frame tree (null for a plane)
+  MlsParams mls;                      ///< projection onto this body's surface
+  bool is_plane = false;              ///< analytic plane z = 0 of the body frame, normal +z
+};
+
+struct CollisionParams {
+  double contact_threshold = 2e-4;  ///< delta_eps (m): pairs with a larger gap are not contacts
+  double max_bandwidth_factor = 1.0;  ///< projection bandwidth = clamp(centre distance, h, factor * h)
+};
+
+/// One contact: control point `leaf` of body[0] against the surface of body[1].
+struct Contact {
+  int body[2] = {-1, -1};
+  int leaf = -1;           ///< control point of body[0]
+  int surface_leaf = -1;   ///< coupled leaf of body[1] (-1 against a plane)
+  Vec3 anchor[2];          ///< contact point in each body's rest frame (m)
+  Vec3 normal;             ///< world frame, unit, from body[1] toward body[0]
+  double gap = 0.0;        ///< signed distance (m), negative when interpenetrating
+  uint64_t key = 0;        ///< stable id for warm starting
+};
+
+inline uint64_t ContactKey(int body0, int body1, int leaf) {
+  return (static_cast<uint64_t>(body0 & 0xffff) << 48) | (static_cast<uint64_t>(body1 & 0xffff) << 32) |
+         static_cast<uint64_t>(static_cast<uint32_t>(leaf));
+}
+
+struct CollisionStats {
+  int node_pairs = 0;     ///< sphere-sphere tests during traversal
+  int leaf_pairs = 0;     ///< overlapping leaf pairs found
+  int projections = 0;    ///< MLS projections done
+  int rejected = 0;       ///< projections rejected (left the border or failed)
+  int contacts = 0;       ///< contacts added
+  int dropped = 0;        ///< contacts lost because the buffer was full
+  double traverse_s = 0;  ///< time in traversal (s)
+  double project_s = 0;   ///< time in projections (s)
+  void Add(const CollisionStats& o);
+};
+
+/// Reusable buffers (sized by Reserve; never grown inside Collide when large enough).
+struct CollisionScratch {
+  struct LeafPair {
+    int leaf_a, leaf_b;
+    double dist2;
+  };
+  std::vector<std::pair<int, int>> stack;
+  std::vector<LeafPair> pairs;
+  std::vector<int> best_a, best_b;       // per leaf: best coupled leaf on the other body, -1 when none
+  std::vector<double> best_a_d2, best_b_d2;
+  std::vector<int> touched_a, touched_b;
+  void Reserve(int max_leaves, int max_pairs);
+};
+
+/// A fixed-capacity contact list: adding beyond capacity drops and counts.
+struct ContactBuffer {
+  std::vector<Contact> items;
+  int capacity = 0;
+  int dropped = 0;
+  void Reserve(int n) {
+    items.reserve(n);
+    capacity = n;
+  }
+  void Clear() {
+    items.clear();
+    dropped = 0;
+  }
+  bool Push(const Contact& c) {
+    if (static_cast<int>(items.size()) >= capacity) {
+      ++dropped;
+      return false;
+    }
+    items.push_back(c);
+    return true;
+  }
+};
+
+/// Appends the contacts between bodies a and b (ids id_a, id_b) to `out`.
+void CollidePair(int id_a, const CollisionShape& a, const Pose& pose_a, int id_b, const CollisionShape& b,
+                 const Pose& pose_b, const CollisionParams& params, CollisionScratch* scratch, ContactBuffer* out,
+                 CollisionStats* stats);
+
+/// True when the root spheres (plus the threshold) overlap: the broad phase.
+bool RootsOverlap(const CollisionShape& a, const Pose& pose_a, const CollisionShape& b, const Pose& pose_b,
+                  double threshold);
+
+}  // namespace gs

@@ -1,0 +1,129 @@
+#include "core/deformation.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "core/point_grid.h"
+
+namespace gs {
+
+void DeformableModel::Build(const std::vector<Vec3>& control_points, double area_per_point,
+                            const DeformationParams& params, double dt) {
+  params_ = params;
+  cp_ = control_points;
+  inf_start_.assign(1, 0);
+  inf_idx_.clear();
+  inf_phi_.clear();
+  nb_start_.assign(1, 0);
+  nb_idx_.clear();
+  relax_.clear();
+  spacing_ = std::sqrt(std::max(area_per_point, 0.0));
+  if (params.model == EDeformation::Rigid || cp_.empty()) {
+    cp_.clear();
+    return;
+  }
+  const int n = static_cast<int>(cp_.size());
+  PointGrid grid;
+  grid.Build(cp_, std::max(spacing_, 1e-9));
+  std::vector<int> nbrs;
+  relax_.resize(n);
+
+  // influence: phi_ij for every i near j, j itself first
+  const double nu2 = 1.0 - params.poisson_ratio * params.poisson_ratio;
+  for (int j = 0; j < n; ++j) {
+    nbrs.clear();
+    double self = 0.0, cutoff = 0.0, scale = 1.0;
+    if (params.model == EDeformation::Gaussian) {
+      const double c = 1.0 / (params.stiffness + params.damping / dt);
+      self = c;
+      cutoff = 3.0 * params.influence_radius;
+      relax_[j] = c * params.damping / dt;
+    } else {
+      const double a = std::sqrt(area_per_point / M_PI);
+      const double c0 = 2.0 * nu2 / (M_PI * params.young_modulus * a);  // static self compliance
+      const double k = 1.0 / c0;
+      scale = k / (k + params.damping / dt);
+      self = c0 * scale;
+      cutoff = 8.0 * spacing_;
+      relax_[j] = (params.damping / dt) / (k + params.damping / dt);
+    }
+    grid.Query(cp_[j], cutoff, &nbrs);
+    std::sort(nbrs.begin(), nbrs.end());
+    inf_idx_.push_back(j);
+    inf_phi_.push_back(self);
+    for (int i : nbrs) {
+      if (i == j) continue;
+      const double x = (cp_[i] - cp_[j]).norm();
+      double phi;
+      if (params.model == EDeformation::Gaussian) {
+        const double rho = params.influence_radius;
+        phi = std::exp(-(x * x) / (rho * rho)) * self;
+      } else {
+        phi = std::min(nu2 / (M_PI * params.young_modulus * std::max(x, 1e-12)) * scale, self);
+      }
+      inf_idx_.push_back(i);
+      inf_phi_.push_back(phi);
+    }
+    inf_start_.push_back(static_cast<int>(inf_idx_.size()));
+    cutoff_ = cutoff;
+    scale_ = scale;
+    self_ = self;
+  }
+
+  // interpolation candidates: control points within 2.5 spacings of each leaf
+  for (int j = 0; j < n; ++j) {
+    nbrs.clear();
+    grid.Query(cp_[j], 2.5 * spacing_, &nbrs);
+    std::sort(nbrs.begin(), nbrs.end());
+    nb_idx_.insert(nb_idx_.end(), nbrs.begin(), nbrs.end());
+    nb_start_.push_back(static_cast<int>(nb_idx_.size()));
+  }
+}
+
+double DeformableModel::Kernel(int i, int j) const {
+  if (i == j) return self_;
+  const double x = (cp_[i] - cp_[j]).norm();
+  if (x > cutoff_) return 0.0;
+  if (params_.model == EDeformation::Gaussian) {
+    const double rho = params_.influence_radius;
+    return std::exp(-(x * x) / (rho * rho)) * self_;
+  }
+  const double nu2 = 1.0 - params_.poisson_ratio * params_.poisson_ratio;
+  return std::min(nu2 / (M_PI * params_.young_modulus * std::max(x, 1e-12)) * scale_, self_);
+}
+
+int DeformableModel::Interpolate(const Vec3& p, int near, int* idx, double* w, int max) const {
+  if (!enabled() || near < 0 || near >= size() || max <= 0) return 0;
+  // gaussian weights with the control spacing as bandwidth (eq. 8)
+  const double h2 = spacing_ * spacing_;
+  int count = 0;
+  double sum = 0.0;
+  for (int k = nb_start_[near]; k < nb_start_[near + 1]; ++k) {
+    const int i = nb_idx_[k];
+    const double wi = std::exp(-(cp_[i] - p).squaredNorm() / h2);
+    if (count < max) {
+      idx[count] = i;
+      w[count] = wi;
+      ++count;
+    } else {
+      // keep the heaviest `max`
+      int lightest = 0;
+      for (int m = 1; m < count; ++m)
+        if (w[m] < w[lightest]) lightest = m;
+      if (wi > w[lightest]) {
+        idx[lightest] = i;
+        w[lightest] = wi;
+      }
+    }
+  }
+  for (int m = 0; m < count; ++m) sum += w[m];
+  if (!(sum > 1e-300)) {
+    idx[0] = near;
+    w[0] = 1.0;
+    return 1;
+  }
+  for (int m = 0; m < count; ++m) w[m] /= sum;
+  return count;
+}
+
+}  // namespace gs

@@ -1,0 +1,259 @@
+#include "core/sphere_tree.h"
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+
+#include "core/point_grid.h"
+
+namespace gs {
+namespace {
+
+// spacing estimate from the bounding box surface area, for grid cell sizes
+double GuessSpacing(const PointCloud& cloud) {
+  Vec3 lo = cloud.positions[0], hi = cloud.positions[0];
+  for (const Vec3& p : cloud.positions) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  const Vec3 e = hi - lo;
+  const double area = 2.0 * (e.x() * e.y() + e.y() * e.z() + e.z() * e.x());
+  const double s = std::sqrt(area / static_cast<double>(cloud.size()));
+  return s > 0 ? s : 1e-3;
+}
+
+// largest nearest-neighbour distance over the cloud: the coverage margin
+double LargestNearestGap(const PointCloud& cloud, const PointGrid& grid, double spacing) {
+  std::vector<int> buf;
+  double worst = 0.0;
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    const Vec3& p = cloud.positions[i];
+    double best = std::numeric_limits<double>::infinity();
+    for (double r = 2.0 * spacing; !std::isfinite(best) && r < 1e3 * spacing; r *= 2.0) {
+      buf.clear();
+      grid.Query(p, r, &buf);
+      for (int j : buf) {
+        if (j == static_cast<int>(i)) continue;
+        const double d = (cloud.positions[j] - p).norm();
+        if (d > 0.0) best = std::min(best, d);
+      }
+    }
+    if (std::isfinite(best)) worst = std::max(worst, best);
+  }
+  return worst;
+}
+
+}  // namespace
+
+SphereTree::EBuildError SphereTree::Build(const PointCloud& cloud, const MlsParams& mls,
+                                          const SphereTreeParams& params) {
+  nodes_.clear();
+  leaf_node_.clear();
+  control_points_.clear();
+  const int n = static_cast<int>(cloud.size());
+  if (n < 4 || cloud.normals.size() != cloud.positions.size()) return EBuildError::TooFewPoints;
+  if (params.leaf_count < 1 || params.leaf_count > n) return EBuildError::BadLeafCount;
+  for (int i = 0; i < n; ++i)
+    if (!cloud.positions[i].allFinite() || !cloud.normals[i].allFinite()) return EBuildError::NotFinite;
+
+  lod_samples_ = std::max(1, params.lod_samples);
+  const double spacing = GuessSpacing(cloud);
+  PointGrid grid;
+  grid.Build(cloud.positions, 2.0 * spacing);
+  cover_margin_ = params.cover_margin > 0 ? params.cover_margin : LargestNearestGap(cloud, grid, spacing);
+  border_ = params.border;
+
+  // recursive median split into exactly leaf_count leaves
+  point_order_.resize(n);
+  for (int i = 0; i < n; ++i) point_order_[i] = i;
+  nodes_.reserve(2 * static_cast<size_t>(params.leaf_count));
+  lod_points_.clear();
+  max_depth_ = 0;
+  BuildNode(cloud, 0, n, params.leaf_count, -1, 0);
+
+  // leaf centres: the centroid projected onto the MLS surface of the whole cloud
+  std::vector<int> nbrs;
+  const double support = mls.support * mls.bandwidth;
+  point_leaf_.assign(n, -1);
+  for (size_t ni = 0; ni < nodes_.size(); ++ni) {
+    TreeNode& node = nodes_[ni];
+    if (!node.IsLeaf()) continue;
+    Vec3 centroid = Vec3::Zero();
+    for (int k = node.first; k < node.first + node.count; ++k) centroid += cloud.positions[point_order_[k]];
+    centroid /= node.count;
+    nbrs.clear();
+    grid.Query(centroid, support, &nbrs);
+    std::sort(nbrs.begin(), nbrs.end());
+    MlsProjection proj;
+    Vec3 center;
+    if (!nbrs.empty() && MlsProject(cloud.positions.data(), cloud.normals.data(), nbrs.data(),
+                                    static_cast<int>(nbrs.size()), centroid, mls, &proj) &&
+        proj.point.allFinite() && (proj.point - centroid).norm() < 4.0 * spacing + support) {
+      center = proj.point;
+    } else {
+      // too few neighbours for a fit: the leaf point nearest to the centroid
+      int best = point_order_[node.first];
+      for (int k = node.first; k < node.first + node.count; ++k) {
+        const int i = point_order_[k];
+        if ((cloud.positions[i] - centroid).squaredNorm() < (cloud.positions[best] - centroid).squaredNorm()) best = i;
+      }
+      center = cloud.positions[best];
+    }
+    node.center = center;
+    double r = 0.0;
+    for (int k = node.first; k < node.first + node.count; ++k) {
+      r = std::max(r, (cloud.positions[point_order_[k]] - center).norm());
+      point_leaf_[point_order_[k]] = node.leaf;
+    }
+    node.rest_radius = node.radius = r + cover_margin_;
+  }
+  control_points_.resize(leaf_node_.size());
+  for (size_t l = 0; l < leaf_node_.size(); ++l) control_points_[l] = nodes_[leaf_node_[l]].center;
+
+  // neighbourhoods: points within radius + border of each leaf centre
+  nbr_start_.assign(leaf_node_.size() + 1, 0);
+  nbr_items_.clear();
+  for (size_t l = 0; l < leaf_node_.size(); ++l) {
+    const TreeNode& node = nodes_[leaf_node_[l]];
+    nbrs.clear();
+    grid.Query(node.center, node.rest_radius + border_, &nbrs);
+    std::sort(nbrs.begin(), nbrs.end());
+    nbr_items_.insert(nbr_items_.end(), nbrs.begin(), nbrs.end());
+    nbr_start_[l + 1] = static_cast<int>(nbr_items_.size());
+  }
+
+  growth_.assign(nodes_.size(), 0.0);
+  dirty_.clear();
+  dirty_.reserve(nodes_.size());
+  dirty_mark_.assign(nodes_.size(), 0);
+  stop_nodes_.clear();
+  stop_level_ = -1;
+  top_growth_ = 0.0;
+  return EBuildError::None;
+}
+
+int SphereTree::BuildNode(const PointCloud& cloud, int first, int count, int leaves, int parent, int depth) {
+  const int index = static_cast<int>(nodes_.size());
+  nodes_.emplace_back();
+  max_depth_ = std::max(max_depth_, depth);
+  {
+    TreeNode& node = nodes_[index];
+    node.parent = parent;
+    node.depth = depth;
+    node.first = first;
+    node.count = count;
+  }
+
+  // centroid, covariance and bounding radius of the points below
+  Vec3 c = Vec3::Zero();
+  for (int k = first; k < first + count; ++k) c += cloud.positions[point_order_[k]];
+  c /= count;
+  double r = 0.0;
+  Mat3 cov = Mat3::Zero();
+  for (int k = first; k < first + count; ++k) {
+    const Vec3 d = cloud.positions[point_order_[k]] - c;
+    r = std::max(r, d.norm());
+    cov += d * d.transpose();
+  }
+  nodes_[index].center = c;
+  nodes_[index].rest_radius = nodes_[index].radius = r + cover_margin_;
+
+  // level-of-detail sample: evenly strided points of the range
+  nodes_[index].lod_first = static_cast<int>(lod_points_.size());
+  const int lod = std::min(count, lod_samples_);
+  for (int s = 0; s < lod; ++s) lod_points_.push_back(point_order_[first + (s * count) / lod]);
+  nodes_[index].lod_count = lod;
+
+  if (leaves <= 1) {
+    nodes_[index].leaf = static_cast<int>(leaf_node_.size());
+    leaf_node_.push_back(index);
+    return index;
+  }
+
+  // split along the principal axis so that each side gets its share of leaves
+  Eigen::SelfAdjointEigenSolver<Mat3> eig(cov);
+  const Vec3 axis = eig.eigenvectors().col(2);
+  const int left_leaves = leaves / 2;
+  const int right_leaves = leaves - left_leaves;
+  int split = static_cast<int>(std::llround(static_cast<double>(count) * left_leaves / leaves));
+  split = std::clamp(split, left_leaves, count - right_leaves);
+  auto begin = point_order_.begin() + first;
+  std::nth_element(begin, begin + split, begin + count, [&](int a, int b) {
+    const double pa = cloud.positions[a].dot(axis), pb = cloud.positions[b].dot(axis);
+    return pa < pb || (pa == pb && a < b);
+  });
+  const int left = BuildNode(cloud, first, split, left_leaves, index, depth + 1);
+  const int right = BuildNode(cloud, first + split, count - split, right_leaves, index, depth + 1);
+  nodes_[index].child[0] = left;
+  nodes_[index].child[1] = right;
+  return index;
+}
+
+void SphereTree::Refit(const Vec3* displacement, const double* spread, const uint8_t* changed, int stop_level,
+                       RefitStats* stats) {
+  RefitStats local;
+  if (stop_level < 0) stop_level = 0;
+  if (stop_level != stop_level_) {
+    // the frontier where refit stops: nodes at the stop level, or leaves above it
+    stop_level_ = stop_level;
+    stop_nodes_.clear();
+    for (size_t i = 0; i < nodes_.size(); ++i)
+      if (nodes_[i].depth == stop_level || (nodes_[i].IsLeaf() && nodes_[i].depth < stop_level))
+        stop_nodes_.push_back(static_cast<int>(i));
+  }
+
+  // changed leaves: growth = displacement bound of their surface
+  dirty_.clear();
+  for (int l = 0; l < num_leaves(); ++l) {
+    if (!changed[l]) continue;
+    ++local.leaves_changed;
+    const int ni = leaf_node_[l];
+    const double g = displacement[l].norm() + std::max(0.0, spread[l]);
+    growth_[ni] = std::isfinite(g) ? g : growth_[ni];
+    nodes_[ni].radius = nodes_[ni].rest_radius + growth_[ni];
+    ++local.nodes_visited;
+    for (int p = nodes_[ni].parent; p >= 0 && nodes_[p].depth >= stop_level && !dirty_mark_[p]; p = nodes_[p].parent) {
+      dirty_mark_[p] = 1;
+      dirty_.push_back(p);
+    }
+  }
+
+  // ancestors down to the stop level, deepest first: growth = max over children
+  std::sort(dirty_.begin(), dirty_.end(), [&](int a, int b) {
+    return nodes_[a].depth > nodes_[b].depth || (nodes_[a].depth == nodes_[b].depth && a < b);
+  });
+  for (int ni : dirty_) {
+    dirty_mark_[ni] = 0;
+    TreeNode& node = nodes_[ni];
+    growth_[ni] = std::max(growth_[node.child[0]], growth_[node.child[1]]);
+    node.radius = node.rest_radius + growth_[ni];
+    ++local.nodes_visited;
+  }
+
+  // above the stop level: inflate by the largest growth on the frontier
+  if (local.leaves_changed > 0 && stop_level > 0) {
+    double top = 0.0;
+    for (int ni : stop_nodes_) top = std::max(top, growth_[ni]);
+    if (top != top_growth_) {
+      top_growth_ = top;
+      for (size_t i = 0; i < nodes_.size(); ++i) {
+        if (nodes_[i].depth >= stop_level) continue;
+        if (nodes_[i].IsLeaf()) continue;  // shallow leaves are on the frontier
+        growth_[i] = top;
+        nodes_[i].radius = nodes_[i].rest_radius + top;
+        ++local.nodes_visited;
+      }
+    }
+  }
+  if (stats) *stats = local;
+}
+
+void SphereTree::ResetRefit() {
+  for (size_t i = 0; i < nodes_.size(); ++i) {
+    growth_[i] = 0.0;
+    nodes_[i].radius = nodes_[i].rest_radius;
+  }
+  top_growth_ = 0.0;
+}
+
+}  // namespace gs

@@ -1,0 +1,120 @@
+// Binary sphere tree over a body's surface points (paper section 3.3), built
+// once in the body's rest frame.
+//
+// - Every node bounds the points below it (plus a coverage margin, so that the
+//   continuous MLS surface between samples is enclosed too) and keeps a small
+//   level-of-detail sample of them.
+// - There are exactly `leaf_count` leaves. A leaf's centre lies on the MLS
+//   surface; the leaf centres are the body's control points (paper 3.5.1).
+// - Each leaf keeps its neighbourhood: every point within its radius plus the
+//   r_eps border. Collision detection projects onto the MLS surface of those
+//   points only (the "coupled node plus r_eps border" of the paper).
+// - Refit after deformation is bottom-up from the leaves whose displacement
+//   changed, and stops at a given depth (paper: "we stop the process when we
+//   reach a given level in the hierarchy"): nodes above it are not visited;
+//   their radius is the rest radius inflated by the largest growth found at the
+//   stop level, which still encloses everything below.
+//   Gaps are measured on the undeformed surface and deformation enters through
+//   the displacements (paper eq. 6-7), so a refit sphere encloses the surface both
+//   at rest and deformed: centres stay, radii grow by the displacement bound.
+//
+// Leaf ids are stable for the life of the tree: contacts, warm starts and
+// deformation state are keyed by them.
+#pragma once
+
+#include "core/mls.h"
+#include "core/types.h"
+
+namespace gs {
+
+struct SphereTreeParams {
+  int leaf_count = 1;         ///< number of leaves = control points
+  double border = 0.0;        ///< r_eps (m): neighbourhood margin around each leaf sphere
+  double cover_margin = 0.0;  ///< (m) added to every radius; 0 = automatic (largest nearest-neighbour gap)
+  int lod_samples = 8;        ///< level-of-detail samples kept per node
+};
+
+struct TreeNode {
+  Vec3 center = Vec3::Zero();  ///< rest frame (m)
+  double radius = 0.0;         ///< current radius, after refit (m)
+  double rest_radius = 0.0;    ///< radius of the undeformed surface (m)
+  int child[2] = {-1, -1};     ///< children, -1 for a leaf
+  int parent = -1;
+  int depth = 0;
+  int leaf = -1;               ///< leaf id (control point index) or -1
+  int first = 0, count = 0;    ///< points below this node: point_order()[first .. first+count)
+  int lod_first = 0, lod_count = 0;  ///< level-of-detail sample: lod_points()[lod_first ..)
+
+  bool IsLeaf() const { return child[0] < 0; }
+};
+
+struct RefitStats {
+  int nodes_visited = 0;   ///< nodes whose sphere was recomputed or inflated
+  int leaves_changed = 0;
+};
+
+class SphereTree {
+ public:
+  enum class EBuildError { None, TooFewPoints, BadLeafCount, NotFinite };
+
+  /// Builds the tree over `cloud` (rest frame). `mls` projects leaf centres onto the surface.
+  EBuildError Build(const PointCloud& cloud, const MlsParams& mls, const SphereTreeParams& params);
+
+  const std::vector<TreeNode>& nodes() const { return nodes_; }
+  const TreeNode& node(int i) const { return nodes_[i]; }
+  int root() const { return 0; }
+  int num_leaves() const { return static_cast<int>(leaf_node_.size()); }
+  int leaf_node(int leaf) const { return leaf_node_[leaf]; }
+  int depth() const { return max_depth_; }
+  /// Rest position of control point `leaf` (the leaf centre, on the MLS surface).
+  const Vec3& control_point(int leaf) const { return nodes_[leaf_node_[leaf]].center; }
+  const std::vector<Vec3>& control_points() const { return control_points_; }
+  /// Permutation of point indices; each node covers a contiguous range of it.
+  const std::vector<int>& point_order() const { return point_order_; }
+  const std::vector<int>& lod_points() const { return lod_points_; }
+  /// Leaf owning each point.
+  const std::vector<int>& point_leaf() const { return point_leaf_; }
+  /// Points within the leaf's radius + border (indices into the cloud).
+  const int* neighbourhood(int leaf, int* count) const {
+    *count = nbr_start_[leaf + 1] - nbr_start_[leaf];
+    return nbr_items_.data() + nbr_start_[leaf];
+  }
+  double border() const { return border_; }
+  double cover_margin() const { return cover_margin_; }
+
+  /// Refits after deformation. `displacement[leaf]` is the current displacement of
+  /// each control point (rest frame, m), `changed[leaf]` != 0 for the leaves whose
+  /// displacement changed since the last refit (only those and their ancestors are
+  /// touched), `spread[leaf]` bounds how far any surface point of the leaf moved
+  /// relative to the control point (m). Nodes shallower than `stop_level` are not
+  /// recomputed: their radius is inflated by the largest growth below them.
+  void Refit(const Vec3* displacement, const double* spread, const uint8_t* changed, int stop_level,
+             RefitStats* stats);
+  /// Back to the rest shape.
+  void ResetRefit();
+  /// Radius of node i as refit (rest radius plus growth), what traversal must use.
+  double radius(int i) const { return nodes_[i].radius; }
+
+ private:
+  int BuildNode(const PointCloud& cloud, int first, int count, int leaves, int parent, int depth);
+
+  std::vector<TreeNode> nodes_;
+  std::vector<int> leaf_node_;
+  std::vector<Vec3> control_points_;
+  std::vector<int> point_order_;
+  std::vector<int> point_leaf_;
+  std::vector<int> lod_points_;
+  std::vector<int> nbr_start_, nbr_items_;
+  std::vector<double> growth_;      // radius growth of each node over its rest radius (m)
+  std::vector<int> dirty_;          // scratch for Refit
+  std::vector<uint8_t> dirty_mark_;
+  std::vector<int> stop_nodes_;     // nodes at the stop level (or leaves above it)
+  int stop_level_ = -1;
+  double top_growth_ = 0.0;         // growth applied to every node above the stop level
+  double border_ = 0.0;
+  double cover_margin_ = 0.0;
+  int max_depth_ = 0;
+  int lod_samples_ = 8;
+};
+
+}  // namespace gs
