@@ -49,7 +49,8 @@ void TraverseTrees(const SphereTree& ta, const SphereTree& tb, const Pose& b_in_
 // for every query leaf that has a coupled leaf in best[]; consumes `touched`
 void ProjectSide(int id_q, const SphereTree& tq, const Pose& q_to_s, int id_s, const CollisionShape& surf,
                  const Pose& pose_s, const CollisionParams& params, std::vector<int>* best,
-                 std::vector<double>* best_d2, std::vector<int>* touched, ContactBuffer* out, CollisionStats* stats) {
+                 std::vector<double>* best_d2, std::vector<double>* lift, std::vector<int>* touched,
+                 ContactBuffer* out, CollisionStats* stats) {
   const SphereTree& ts = *surf.tree;
   const Vec3* pos = surf.cloud->positions.data();
   const Vec3* nrm = surf.cloud->normals.data();
@@ -58,9 +59,16 @@ void ProjectSide(int id_q, const SphereTree& tq, const Pose& q_to_s, int id_s, c
   for (int lq : *touched) {
     const int ls = (*best)[lq];
     const double d2 = (*best_d2)[lq];
+    const double above = (*lift)[lq];
     (*best)[lq] = -1;
     (*best_d2)[lq] = std::numeric_limits<double>::infinity();
+    (*lift)[lq] = std::numeric_limits<double>::infinity();
     if (ls < 0) continue;
+    // above the slab of every overlapping leaf by more than delta_eps: no surface within delta_eps
+    if (above > params.contact_threshold) {
+      ++stats->culled;
+      continue;
+    }
     // bandwidth from the distance between the coupled centres, clamped to the body's range
     mls.bandwidth = std::clamp(std::sqrt(d2), h, params.max_bandwidth_factor * h);
     const Vec3 x = q_to_s.Apply(tq.control_point(lq));
@@ -68,7 +76,8 @@ void ProjectSide(int id_q, const SphereTree& tq, const Pose& q_to_s, int id_s, c
     const int* idx = ts.neighbourhood(ls, &count);
     MlsProjection proj;
     ++stats->projections;
-    if (!MlsProject(pos, nrm, idx, count, x, mls, &proj) || !proj.point.allFinite() || !proj.normal.allFinite()) {
+    if (!ProjectOntoSurface(pos, nrm, idx, count, x, mls, &proj) || !proj.point.allFinite() ||
+        !proj.normal.allFinite()) {
       ++stats->rejected;
       continue;
     }
@@ -148,11 +157,31 @@ void CollidePlane(int id_q, const SphereTree& tq, const Pose& pose_q, int id_p, 
 
 }  // namespace
 
+bool ProjectOntoSurface(const Vec3* positions, const Vec3* normals, const int* idx, int count, const Vec3& x,
+                        const MlsParams& mls, MlsProjection* out) {
+  if (count <= 0) return false;
+  if (MlsProject(positions, normals, idx, count, x, mls, out)) return true;
+  // deep query: restart from its foot on the nearest point's tangent plane
+  int nearest = idx[0];
+  double best = (positions[nearest] - x).squaredNorm();
+  for (int k = 1; k < count; ++k) {
+    const double d2 = (positions[idx[k]] - x).squaredNorm();
+    if (d2 < best) {
+      best = d2;
+      nearest = idx[k];
+    }
+  }
+  const Vec3& n = normals[nearest];
+  const Vec3 foot = x - (x - positions[nearest]).dot(n) * n;
+  return MlsProject(positions, normals, idx, count, foot, mls, out);
+}
+
 void CollisionStats::Add(const CollisionStats& o) {
   node_pairs += o.node_pairs;
   leaf_pairs += o.leaf_pairs;
   projections += o.projections;
   rejected += o.rejected;
+  culled += o.culled;
   contacts += o.contacts;
   dropped += o.dropped;
   traverse_s += o.traverse_s;
@@ -167,6 +196,8 @@ void CollisionScratch::Reserve(int max_leaves, int max_pairs) {
     best_b.assign(max_leaves, -1);
     best_a_d2.assign(max_leaves, std::numeric_limits<double>::infinity());
     best_b_d2.assign(max_leaves, std::numeric_limits<double>::infinity());
+    lift_a.assign(max_leaves, std::numeric_limits<double>::infinity());
+    lift_b.assign(max_leaves, std::numeric_limits<double>::infinity());
   }
   touched_a.reserve(max_leaves);
   touched_b.reserve(max_leaves);
@@ -211,9 +242,25 @@ void CollidePair(int id_a, const CollisionShape& a, const Pose& pose_a, int id_b
   const Pose a_in_b = b_in_a.Inverse();
   TraverseTrees(*a.tree, *b.tree, b_in_a, params.contact_threshold, s, &local);
 
-  // closest overlapping leaf on the other body, for every leaf of each body
+  // closest overlapping leaf on the other body, for every leaf of each body, and
+  // how high each leaf centre stands above the other body's overlapping leaf slabs
+  const SphereTree& ta = *a.tree;
+  const SphereTree& tb = *b.tree;
   for (const CollisionScratch::LeafPair& p : s->pairs) {
-    if (s->best_a[p.leaf_a] < 0) s->touched_a.push_back(p.leaf_a);
+    const Vec3 ca = ta.control_point(p.leaf_a), cb = tb.control_point(p.leaf_b);
+    const double ha = (a_in_b.Apply(ca) - cb).dot(tb.leaf_normal(p.leaf_b)) - tb.leaf_height(p.leaf_b);
+    const double hb = (b_in_a.Apply(cb) - ca).dot(ta.leaf_normal(p.leaf_a)) - ta.leaf_height(p.leaf_a);
+    if (s->best_a[p.leaf_a] < 0) {
+      s->touched_a.push_back(p.leaf_a);
+      s->lift_a[p.leaf_a] = ha;
+    } else {
+      s->lift_a[p.leaf_a] = std::min(s->lift_a[p.leaf_a], ha);
+    }
+    if (s->best_b[p.leaf_b] < 0) {
+      s->lift_b[p.leaf_b] = hb;
+    } else {
+      s->lift_b[p.leaf_b] = std::min(s->lift_b[p.leaf_b], hb);
+    }
     if (p.dist2 < s->best_a_d2[p.leaf_a] || s->best_a[p.leaf_a] < 0) {
       s->best_a[p.leaf_a] = p.leaf_b;
       s->best_a_d2[p.leaf_a] = p.dist2;
@@ -227,8 +274,10 @@ void CollidePair(int id_a, const CollisionShape& a, const Pose& pose_a, int id_b
   const auto t1 = Clock::now();
 
   // interpenetration: a's control points on b's surface, then b's on a's
-  ProjectSide(id_a, *a.tree, a_in_b, id_b, b, pose_b, params, &s->best_a, &s->best_a_d2, &s->touched_a, out, &local);
-  ProjectSide(id_b, *b.tree, b_in_a, id_a, a, pose_a, params, &s->best_b, &s->best_b_d2, &s->touched_b, out, &local);
+  ProjectSide(id_a, *a.tree, a_in_b, id_b, b, pose_b, params, &s->best_a, &s->best_a_d2, &s->lift_a, &s->touched_a,
+              out, &local);
+  ProjectSide(id_b, *b.tree, b_in_a, id_a, a, pose_a, params, &s->best_b, &s->best_b_d2, &s->lift_b, &s->touched_b,
+              out, &local);
   const auto t2 = Clock::now();
   local.traverse_s += Seconds(t0, t1);
   local.project_s += Seconds(t1, t2);

@@ -59,6 +59,7 @@ struct CollisionStats {
   int leaf_pairs = 0;     ///< overlapping leaf pairs found
   int projections = 0;    ///< MLS projections done
   int rejected = 0;       ///< projections rejected (left the border or failed)
+  int culled = 0;         ///< leaves skipped: above every overlapping leaf's slab by more than delta_eps
   int contacts = 0;       ///< contacts added
   int dropped = 0;        ///< contacts lost because the buffer was full
   double traverse_s = 0;  ///< time in traversal (s)
@@ -70,12 +71,13 @@ struct CollisionStats {
 struct CollisionScratch {
   struct LeafPair {
     int leaf_a, leaf_b;
-    double dist2;
+    double dist2;  // squared distance between the two leaf centres
   };
   std::vector<std::pair<int, int>> stack;
   std::vector<LeafPair> pairs;
   std::vector<int> best_a, best_b;       // per leaf: best coupled leaf on the other body, -1 when none
   std::vector<double> best_a_d2, best_b_d2;
+  std::vector<double> lift_a, lift_b;    // per leaf: lowest height above the other body's overlapping leaf slabs
   std::vector<int> touched_a, touched_b;
   void Reserve(int max_leaves, int max_pairs);
 };
@@ -102,6 +104,13 @@ struct ContactBuffer {
     return true;
   }
 };
+
+/// Projects x onto the MLS surface of the points idx[0..count). When x is deeper
+/// than the kernel's support (no point carries weight there), the projection
+/// starts from x's foot on the tangent plane of the nearest point instead, so
+/// that deep interpenetration still yields a gap.
+bool ProjectOntoSurface(const Vec3* positions, const Vec3* normals, const int* idx, int count, const Vec3& x,
+                        const MlsParams& mls, MlsProjection* out);
 
 /// Appends the contacts between bodies a and b (ids id_a, id_b) to `out`.
 void CollidePair(int id_a, const CollisionShape& a, const Pose& pose_a, int id_b, const CollisionShape& b,

@@ -60,7 +60,10 @@ SphereTree::EBuildError SphereTree::Build(const PointCloud& cloud, const MlsPara
   const double spacing = GuessSpacing(cloud);
   PointGrid grid;
   grid.Build(cloud.positions, 2.0 * spacing);
-  cover_margin_ = params.cover_margin > 0 ? params.cover_margin : LargestNearestGap(cloud, grid, spacing);
+  // any surface point is within the covering radius of some sample; for evenly
+  // spread samples that radius is below 0.75 of the largest nearest-neighbour gap
+  // (0.58 in a perfect triangular packing); the coverage tests check it
+  cover_margin_ = params.cover_margin > 0 ? params.cover_margin : 0.75 * LargestNearestGap(cloud, grid, spacing);
   border_ = params.border;
 
   // recursive median split into exactly leaf_count leaves
@@ -106,6 +109,25 @@ SphereTree::EBuildError SphereTree::Build(const PointCloud& cloud, const MlsPara
       point_leaf_[point_order_[k]] = node.leaf;
     }
     node.rest_radius = node.radius = r + cover_margin_;
+  }
+  // leaf slabs: mean normal and the highest point above the centre along it
+  leaf_normal_.assign(leaf_node_.size(), Vec3::UnitZ());
+  leaf_height_.assign(leaf_node_.size(), 0.0);
+  for (size_t l = 0; l < leaf_node_.size(); ++l) {
+    const TreeNode& node = nodes_[leaf_node_[l]];
+    Vec3 nsum = Vec3::Zero();
+    for (int k = node.first; k < node.first + node.count; ++k) nsum += cloud.normals[point_order_[k]];
+    const Vec3 n = nsum.norm() > 1e-12 ? Vec3(nsum.normalized()) : Vec3::UnitZ();
+    double h = 0.0, min_cos = 1.0;
+    for (int k = node.first; k < node.first + node.count; ++k) {
+      const int i = point_order_[k];
+      h = std::max(h, (cloud.positions[i] - node.center).dot(n));
+      min_cos = std::min(min_cos, cloud.normals[i].dot(n));
+    }
+    leaf_normal_[l] = n;
+    // between samples the surface may rise by up to the coverage margin where the leaf
+    // bends; a leaf whose normals spread past 60 degrees gets no slab (height = radius)
+    leaf_height_[l] = min_cos > 0.5 ? h + 0.5 * cover_margin_ : node.rest_radius;
   }
   control_points_.resize(leaf_node_.size());
   for (size_t l = 0; l < leaf_node_.size(); ++l) control_points_[l] = nodes_[leaf_node_[l]].center;

@@ -79,6 +79,14 @@ class SphereTree {
     *count = nbr_start_[leaf + 1] - nbr_start_[leaf];
     return nbr_items_.data() + nbr_start_[leaf];
   }
+  /// Mean outward normal of a leaf's points (unit, rest frame).
+  const Vec3& leaf_normal(int leaf) const { return leaf_normal_[leaf]; }
+  /// Height of the leaf's surface above its centre along leaf_normal (m, >= 0),
+  /// including the refit growth: no surface point of the leaf lies higher.
+  double leaf_height(int leaf) const {
+    const TreeNode& n = nodes_[leaf_node_[leaf]];
+    return leaf_height_[leaf] + (n.radius - n.rest_radius);
+  }
   double border() const { return border_; }
   double cover_margin() const { return cover_margin_; }
 
@@ -105,6 +113,8 @@ class SphereTree {
   std::vector<int> point_leaf_;
   std::vector<int> lod_points_;
   std::vector<int> nbr_start_, nbr_items_;
+  std::vector<Vec3> leaf_normal_;
+  std::vector<double> leaf_height_;
   std::vector<double> growth_;      // radius growth of each node over its rest radius (m)
   std::vector<int> dirty_;          // scratch for Refit
   std::vector<uint8_t> dirty_mark_;
