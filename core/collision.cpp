@@ -15,30 +15,32 @@ double Seconds(Clock::time_point a, Clock::time_point b) { return std::chrono::d
 // collects the overlapping leaf pairs of two trees; b_in_a maps b's frame to a's
 void TraverseTrees(const SphereTree& ta, const SphereTree& tb, const Pose& b_in_a, double threshold,
                    CollisionScratch* s, CollisionStats* stats) {
+  const TraversalNode* na_ = ta.traversal();
+  const TraversalNode* nb_ = tb.traversal();
   s->stack.clear();
   s->pairs.clear();
   s->stack.emplace_back(ta.root(), tb.root());
   int tests = 0;
   while (!s->stack.empty()) {
-    const auto [na, nb] = s->stack.back();
+    const auto [ia, ib] = s->stack.back();
     s->stack.pop_back();
-    const TreeNode& a = ta.node(na);
-    const TreeNode& b = tb.node(nb);
-    const Vec3 cb = b_in_a.Apply(b.center);
+    const TraversalNode& a = na_[ia];
+    const TraversalNode& b = nb_[ib];
+    const Vec3 cb = b_in_a.R * b.center + b_in_a.t;
     const double reach = a.radius + b.radius + threshold;
     const double d2 = (cb - a.center).squaredNorm();
     ++tests;
     if (d2 > reach * reach) continue;
     const bool a_leaf = a.IsLeaf(), b_leaf = b.IsLeaf();
     if (a_leaf && b_leaf) {
-      s->pairs.push_back({a.leaf, b.leaf, d2});
+      s->pairs.push_back({a.leaf(), b.leaf(), d2});
     } else if (b_leaf || (!a_leaf && a.radius >= b.radius)) {
       // descend the larger node
-      s->stack.emplace_back(a.child[1], nb);
-      s->stack.emplace_back(a.child[0], nb);
+      s->stack.emplace_back(a.child[1], ib);
+      s->stack.emplace_back(a.child[0], ib);
     } else {
-      s->stack.emplace_back(na, b.child[1]);
-      s->stack.emplace_back(na, b.child[0]);
+      s->stack.emplace_back(ia, b.child[1]);
+      s->stack.emplace_back(ia, b.child[0]);
     }
   }
   stats->node_pairs += tests;
@@ -48,7 +50,7 @@ void TraverseTrees(const SphereTree& ta, const SphereTree& tb, const Pose& b_in_
 // projects the control points of the query body onto the surface body's MLS surface
 // for every query leaf that has a coupled leaf in best[]; consumes `touched`
 void ProjectSide(int id_q, const SphereTree& tq, const Pose& q_to_s, int id_s, const CollisionShape& surf,
-                 const Pose& pose_s, const CollisionParams& params, std::vector<int>* best,
+                 const Pose& pose_s, const CollisionParams& params, bool emit, std::vector<int>* best,
                  std::vector<double>* best_d2, std::vector<double>* lift, std::vector<int>* touched,
                  ContactBuffer* out, CollisionStats* stats) {
   const SphereTree& ts = *surf.tree;
@@ -63,7 +65,7 @@ void ProjectSide(int id_q, const SphereTree& tq, const Pose& q_to_s, int id_s, c
     (*best)[lq] = -1;
     (*best_d2)[lq] = std::numeric_limits<double>::infinity();
     (*lift)[lq] = std::numeric_limits<double>::infinity();
-    if (ls < 0) continue;
+    if (ls < 0 || !emit) continue;
     // above the slab of every overlapping leaf by more than delta_eps: no surface within delta_eps
     if (above > params.contact_threshold) {
       ++stats->culled;
@@ -274,10 +276,13 @@ void CollidePair(int id_a, const CollisionShape& a, const Pose& pose_a, int id_b
   const auto t1 = Clock::now();
 
   // interpenetration: a's control points on b's surface, then b's on a's
-  ProjectSide(id_a, *a.tree, a_in_b, id_b, b, pose_b, params, &s->best_a, &s->best_a_d2, &s->lift_a, &s->touched_a,
-              out, &local);
-  ProjectSide(id_b, *b.tree, b_in_a, id_a, a, pose_a, params, &s->best_b, &s->best_b_d2, &s->lift_b, &s->touched_b,
-              out, &local);
+  // (a body that does not emit contacts only receives the other's control points)
+  const bool emit_a = a.emits_contacts || !b.emits_contacts;
+  const bool emit_b = b.emits_contacts || !a.emits_contacts;
+  ProjectSide(id_a, *a.tree, a_in_b, id_b, b, pose_b, params, emit_a, &s->best_a, &s->best_a_d2, &s->lift_a,
+              &s->touched_a, out, &local);
+  ProjectSide(id_b, *b.tree, b_in_a, id_a, a, pose_a, params, emit_b, &s->best_b, &s->best_b_d2, &s->lift_b,
+              &s->touched_b, out, &local);
   const auto t2 = Clock::now();
   local.traverse_s += Seconds(t0, t1);
   local.project_s += Seconds(t1, t2);

@@ -31,6 +31,7 @@ struct CollisionShape {
   const SphereTree* tree = nullptr;   ///< rest-frame tree (null for a plane)
   MlsParams mls;                      ///< projection onto this body's surface
   bool is_plane = false;              ///< analytic plane z = 0 of the body frame, normal +z
+  bool emits_contacts = true;         ///< false: only the other body's control points are projected onto this one
 };
 
 struct CollisionParams {

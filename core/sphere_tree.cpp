@@ -144,6 +144,14 @@ SphereTree::EBuildError SphereTree::Build(const PointCloud& cloud, const MlsPara
     nbr_start_[l + 1] = static_cast<int>(nbr_items_.size());
   }
 
+  hot_.resize(nodes_.size());
+  for (size_t i = 0; i < nodes_.size(); ++i) {
+    const TreeNode& n = nodes_[i];
+    hot_[i].center = n.center;
+    hot_[i].radius = n.radius;
+    hot_[i].child[0] = n.child[0];
+    hot_[i].child[1] = n.IsLeaf() ? n.leaf : n.child[1];
+  }
   growth_.assign(nodes_.size(), 0.0);
   dirty_.clear();
   dirty_.reserve(nodes_.size());
@@ -233,6 +241,7 @@ void SphereTree::Refit(const Vec3* displacement, const double* spread, const uin
     const double g = displacement[l].norm() + std::max(0.0, spread[l]);
     growth_[ni] = std::isfinite(g) ? g : growth_[ni];
     nodes_[ni].radius = nodes_[ni].rest_radius + growth_[ni];
+    SyncRadius(ni);
     ++local.nodes_visited;
     for (int p = nodes_[ni].parent; p >= 0 && nodes_[p].depth >= stop_level && !dirty_mark_[p]; p = nodes_[p].parent) {
       dirty_mark_[p] = 1;
@@ -249,6 +258,7 @@ void SphereTree::Refit(const Vec3* displacement, const double* spread, const uin
     TreeNode& node = nodes_[ni];
     growth_[ni] = std::max(growth_[node.child[0]], growth_[node.child[1]]);
     node.radius = node.rest_radius + growth_[ni];
+    SyncRadius(ni);
     ++local.nodes_visited;
   }
 
@@ -263,6 +273,7 @@ void SphereTree::Refit(const Vec3* displacement, const double* spread, const uin
         if (nodes_[i].IsLeaf()) continue;  // shallow leaves are on the frontier
         growth_[i] = top;
         nodes_[i].radius = nodes_[i].rest_radius + top;
+        SyncRadius(static_cast<int>(i));
         ++local.nodes_visited;
       }
     }
@@ -274,6 +285,7 @@ void SphereTree::ResetRefit() {
   for (size_t i = 0; i < nodes_.size(); ++i) {
     growth_[i] = 0.0;
     nodes_[i].radius = nodes_[i].rest_radius;
+    SyncRadius(static_cast<int>(i));
   }
   top_growth_ = 0.0;
 }

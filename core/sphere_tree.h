@@ -48,6 +48,16 @@ struct TreeNode {
   bool IsLeaf() const { return child[0] < 0; }
 };
 
+/// The hot part of a node, what traversal reads: 40 bytes.
+struct TraversalNode {
+  Vec3 center;     ///< rest frame (m)
+  double radius;   ///< current radius (m)
+  int child[2];    ///< children; for a leaf child[0] = -1 and child[1] = leaf id
+  bool IsLeaf() const { return child[0] < 0; }
+  int leaf() const { return child[1]; }
+};
+static_assert(sizeof(TraversalNode) == 40, "traversal nodes stay compact");
+
 struct RefitStats {
   int nodes_visited = 0;   ///< nodes whose sphere was recomputed or inflated
   int leaves_changed = 0;
@@ -62,6 +72,8 @@ class SphereTree {
 
   const std::vector<TreeNode>& nodes() const { return nodes_; }
   const TreeNode& node(int i) const { return nodes_[i]; }
+  /// Compact copies of the nodes (same indices) for traversal.
+  const TraversalNode* traversal() const { return hot_.data(); }
   int root() const { return 0; }
   int num_leaves() const { return static_cast<int>(leaf_node_.size()); }
   int leaf_node(int leaf) const { return leaf_node_[leaf]; }
@@ -106,7 +118,9 @@ class SphereTree {
  private:
   int BuildNode(const PointCloud& cloud, int first, int count, int leaves, int parent, int depth);
 
+  void SyncRadius(int i) { hot_[i].radius = nodes_[i].radius; }
   std::vector<TreeNode> nodes_;
+  std::vector<TraversalNode> hot_;
   std::vector<int> leaf_node_;
   std::vector<Vec3> control_points_;
   std::vector<int> point_order_;
