@@ -47,6 +47,19 @@ void TraverseTrees(const SphereTree& ta, const SphereTree& tb, const Pose& b_in_
   stats->leaf_pairs += static_cast<int>(s->pairs.size());
 }
 
+// the leaf whose centre is nearest to p, by greedy descent (exact enough for a re-projection)
+int NearestLeaf(const SphereTree& t, const Vec3& p) {
+  const TraversalNode* n = t.traversal();
+  int i = t.root();
+  while (!n[i].IsLeaf()) {
+    const int c0 = n[i].child[0], c1 = n[i].child[1];
+    const double d0 = (n[c0].center - p).norm() - n[c0].radius;
+    const double d1 = (n[c1].center - p).norm() - n[c1].radius;
+    i = d0 <= d1 ? c0 : c1;
+  }
+  return n[i].leaf();
+}
+
 // projects the control points of the query body onto the surface body's MLS surface
 // for every query leaf that has a coupled leaf in best[]; consumes `touched`
 void ProjectSide(int id_q, const SphereTree& tq, const Pose& q_to_s, int id_s, const CollisionShape& surf,
@@ -83,8 +96,25 @@ void ProjectSide(int id_q, const SphereTree& tq, const Pose& q_to_s, int id_s, c
       ++stats->rejected;
       continue;
     }
+    // landed outside the coupled leaf (deep or at a sharp edge): once more with the leaf
+    // nearest to where it landed, whose neighbourhood holds every point the kernel reaches
+    int coupled = ls;
+    {
+      const TreeNode& first = ts.node(ts.leaf_node(ls));
+      if ((proj.point - first.center).squaredNorm() > first.rest_radius * first.rest_radius) {
+        const int near = NearestLeaf(ts, proj.point);
+        MlsProjection again;
+        int n2 = 0;
+        const int* idx2 = ts.neighbourhood(near, &n2);
+        if (near != ls && ProjectOntoSurface(pos, nrm, idx2, n2, x, mls, &again) && again.point.allFinite() &&
+            again.normal.allFinite()) {
+          proj = again;
+          coupled = near;
+        }
+      }
+    }
     // a projection outside the coupled node's border is a curvature artefact
-    const TreeNode& node = ts.node(ts.leaf_node(ls));
+    const TreeNode& node = ts.node(ts.leaf_node(coupled));
     const double reach = node.rest_radius + ts.border();
     if ((proj.point - node.center).squaredNorm() > reach * reach) {
       ++stats->rejected;
@@ -96,7 +126,7 @@ void ProjectSide(int id_q, const SphereTree& tq, const Pose& q_to_s, int id_s, c
     c.body[0] = id_q;
     c.body[1] = id_s;
     c.leaf = lq;
-    c.surface_leaf = ls;
+    c.surface_leaf = coupled;
     c.anchor[0] = tq.control_point(lq);
     c.anchor[1] = proj.point;
     c.normal = pose_s.Rotate(proj.normal);
