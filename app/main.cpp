@@ -10,6 +10,8 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", "graspsim 0.1.0");
   int exit_code = gs::app::kExitOk;
   // one line per subcommand (see app/commands.h)
+  gs::app::AddBenchCommand(app, &exit_code);
+  gs::app::AddValidateCommand(app, &exit_code);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

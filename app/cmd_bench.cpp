@@ -1,0 +1,22 @@
+// `graspsim bench NAME [--json] [--quick]`: benchmarks that print figures.
+#include <memory>
+
+#include "app/bench.h"
+#include "app/commands.h"
+
+namespace gs::app {
+
+void AddBenchCommand(CLI::App& app, int* exit_code) {
+  CLI::App* bench = app.add_subcommand("bench", "Benchmarks: print figures (medians), --json for one object per line");
+  bench->require_subcommand(1);
+  auto opt = std::make_shared<BenchOptions>();
+  auto add = [&](const char* name, const char* help, int (*fn)(const BenchOptions&)) {
+    CLI::App* sub = bench->add_subcommand(name, help);
+    sub->add_flag("--json", opt->json, "one JSON object per line; the last holds the headline figures");
+    sub->add_flag("--quick", opt->quick, "fewer repetitions");
+    sub->callback([opt, exit_code, fn]() { *exit_code = fn(*opt); });
+  };
+  add("collision", "the paper's Figure 6: collision detection at three grasp depths", RunBenchCollision);
+}
+
+}  // namespace gs::app

@@ -1,0 +1,330 @@
+#include "app/validation.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+#include "core/world.h"
+
+namespace gs::app {
+namespace {
+
+constexpr double kG = 9.81;
+
+BodySpec PlaneSpec(const std::string& name, const Pose& pose) {
+  BodySpec s;
+  s.name = name;
+  s.is_plane = true;
+  s.motion = EMotion::Fixed;
+  s.pose = pose;
+  return s;
+}
+
+ValidationResult Result(const std::string& name, double error, double tolerance, const std::string& unit,
+                        const std::string& detail) {
+  ValidationResult r;
+  r.name = name;
+  r.error = error;
+  r.tolerance = tolerance;
+  r.pass = std::isfinite(error) && error <= tolerance;
+  r.unit = unit;
+  r.detail = detail;
+  return r;
+}
+
+// ---- incline ---------------------------------------------------------------
+
+struct InclineRun {
+  double slide = 0.0;  // distance along the slope over the timed second (m)
+  double accel = 0.0;  // fitted acceleration along the slope (m/s^2)
+  bool finite = true;
+};
+
+InclineRun RunIncline(double angle, double mu, bool quick) {
+  World w;
+  w.params.dt = 1e-3;
+  w.params.default_friction = mu;
+  w.params.solver.tolerance = 1e-10;
+  w.params.solver.max_iterations = 1000;
+  const Pose plane = Pose::FromAxisAngle(Vec3::UnitY(), angle);
+  AddBody(w, PlaneSpec("plane", plane));
+  BodySpec b;
+  b.name = "block";
+  b.shape.type = EShape::Box;
+  b.shape.half_extents = Vec3::Constant(0.02);
+  b.geometry.points = quick ? 3000 : 6000;
+  b.geometry.control_points = quick ? 400 : 800;
+  b.mass = 0.1;
+  // a little above the plane (sharp edges' MLS surface bulges by a fraction of the spacing)
+  b.pose = Pose{plane.R, plane.Apply(Vec3(0, 0, 0.0203))};
+  const int block = AddBody(w, b);
+  w.Finalize();
+  // let it land and the landing slip die out, then time one second
+  for (int i = 0; i < 500; ++i) w.Step();
+  const Vec3 slope = plane.R.col(0);  // downhill for a rotation about +y
+  const Vec3 x0 = w.bodies[block].pose.t;
+  const double v0 = w.bodies[block].velocity.dot(slope);
+  InclineRun r;
+  const int steps = 1000;
+  for (int i = 0; i < steps; ++i) {
+    w.Step();
+    r.finite &= w.bodies[block].pose.t.allFinite();
+  }
+  const double s = (w.bodies[block].pose.t - x0).dot(slope);
+  r.slide = std::abs(s);
+  const double t = steps * w.params.dt;
+  r.accel = 2.0 * (s - v0 * t) / (t * t);
+  return r;
+}
+
+}  // namespace
+
+std::vector<ValidationResult> ValidateIncline(const ValidationOptions& opt) {
+  const double mu = 0.4;
+  const double critical = std::atan(mu);
+  std::vector<ValidationResult> out;
+  const InclineRun stick = RunIncline(0.99 * critical, mu, opt.quick);
+  char d[256];
+  std::snprintf(d, sizeof d, "tilt 0.99 atan(mu), mu %.2f: slid %.3g m in 1 s (limit 1e-6 m)", mu, stick.slide);
+  out.push_back(Result("incline_stick", stick.finite ? stick.slide : NAN, 1e-6, "m", d));
+  const double a = 1.01 * critical;
+  const double expected = kG * (std::sin(a) - mu * std::cos(a));
+  const InclineRun slide = RunIncline(a, mu, opt.quick);
+  const double rel = std::abs(slide.accel - expected) / expected;
+  std::snprintf(d, sizeof d, "tilt 1.01 atan(mu): acceleration %.4f m/s^2, expected g(sin a - mu cos a) = %.4f",
+                slide.accel, expected);
+  out.push_back(Result("incline_slide", slide.finite ? rel : NAN, 0.05, "relative", d));
+  return out;
+}
+
+// ---- pinch hold ------------------------------------------------------------
+
+namespace {
+
+TriangleMesh HexagonalPrism(double circumradius, double height) {
+  TriangleMesh m;
+  const double h = 0.5 * height;
+  // vertices at 30 + k*60 degrees: faces' normals at k*60 degrees
+  for (int k = 0; k < 6; ++k) {
+    const double a = M_PI / 6 + k * M_PI / 3;
+    m.vertices.push_back(Vec3(circumradius * std::cos(a), circumradius * std::sin(a), -h));
+  }
+  for (int k = 0; k < 6; ++k) {
+    const Vec3 v = m.vertices[k];
+    m.vertices.push_back(Vec3(v.x(), v.y(), h));
+  }
+  m.vertices.push_back(Vec3(0, 0, -h));  // 12: bottom centre
+  m.vertices.push_back(Vec3(0, 0, h));   // 13: top centre
+  for (int k = 0; k < 6; ++k) {
+    const int a = k, b = (k + 1) % 6;
+    m.triangles.push_back(Eigen::Vector3i(a, b, b + 6));
+    m.triangles.push_back(Eigen::Vector3i(a, b + 6, a + 6));
+    m.triangles.push_back(Eigen::Vector3i(12, b, a));
+    m.triangles.push_back(Eigen::Vector3i(13, a + 6, b + 6));
+  }
+  return m;
+}
+
+struct PinchRun {
+  bool held = false;
+  double creep = 0.0;  // |dz/dt| over the last second of the hold (m/s)
+  double drop = 0.0;   // how far the prism sank relative to the fingertips (m)
+  bool finite = true;
+};
+
+PinchRun RunPinch(double mu_factor, bool quick) {
+  const double m = 0.1, P = 1.0;
+  const double mu_star = m * kG / (3.0 * P);
+  World w;
+  w.params.dt = 1e-3;
+  w.params.solver.tolerance = 1e-9;
+  w.params.solver.max_iterations = 300;
+  w.params.default_friction = 0.5;
+  const int table = AddBody(w, PlaneSpec("table", Pose{}));
+  (void)table;
+  static TriangleMesh prism_mesh = HexagonalPrism(0.02, 0.06);
+  EGeometryError e;
+  TriangleMesh mesh = prism_mesh;
+  ValidateAndOrientMesh(&mesh);
+  BodySpec pr;
+  pr.name = "prism";
+  pr.mesh = &mesh;
+  pr.shape.type = EShape::Cylinder;  // inertia of the enclosing cylinder
+  pr.shape.radius = 0.0185;
+  pr.shape.half_length = 0.03;
+  pr.geometry.points = quick ? 8000 : 12000;
+  pr.geometry.control_points = quick ? 1000 : 1600;
+  pr.mass = m;
+  pr.pose = Pose::Translation(Vec3(0, 0, 0.03));
+  pr.emits_contacts = false;  // one-pass contact: the fingertips' points on the flat faces
+  const int prism = AddBody(w, pr, &e);
+  const double apothem = 0.02 * std::cos(M_PI / 6);
+  std::vector<int> tips;
+  for (int k = 0; k < 3; ++k) {
+    const double a = k * 2.0 * M_PI / 3.0;
+    const Vec3 radial(std::cos(a), std::sin(a), 0);
+    BodySpec t;
+    t.name = "tip" + std::to_string(k);
+    t.shape.type = EShape::Sphere;
+    t.shape.radius = 0.008;
+    t.geometry.points = 2400;
+    t.geometry.control_points = 320;
+    t.mass = 0.01;
+    t.deformation.model = EDeformation::Gaussian;
+    t.deformation.stiffness = 300;
+    t.deformation.damping = 0.5;
+    t.deformation.influence_radius = 0.0015;
+    // drive frame: x toward the prism axis; pushed with P along x, stiff across and vertically
+    const Pose target{Eigen::AngleAxisd(a + M_PI, Vec3::UnitZ()).toRotationMatrix(),
+                      radial * (apothem + 0.0078) + Vec3(0, 0, 0.03)};
+    t.pose = target;
+    t.drive.enabled = true;
+    t.drive.stiffness = Vec3(0, 3000, 3000);
+    t.drive.damping = Vec3(0.5, 20, 20);
+    t.drive.angular_stiffness = Vec3::Constant(0.5);
+    t.drive.angular_damping = Vec3::Constant(0.01);
+    t.drive.force = Vec3(P, 0, 0);
+    t.drive.target = target;
+    tips.push_back(AddBody(w, t, &e));
+  }
+  w.Finalize();
+  for (int k : tips) w.SetFriction(k, prism, mu_factor * mu_star);
+  const double lift = 0.03, lift_time = 0.5, hold = quick ? 2.0 : 10.0;
+  const int steps = static_cast<int>((0.2 + lift_time + hold) / w.params.dt);
+  std::vector<Pose> start;
+  for (int k : tips) start.push_back(w.bodies[k].drive.target);
+  double z_mark = 0.0;
+  PinchRun r;
+  for (int i = 0; i < steps; ++i) {
+    const double t = w.time + w.params.dt;
+    // squeeze 0.2 s on the table, lift over lift_time, hold
+    const double rise = lift * std::clamp((t - 0.2) / lift_time, 0.0, 1.0);
+    for (size_t k = 0; k < tips.size(); ++k) {
+      w.bodies[tips[k]].drive.target = start[k];
+      w.bodies[tips[k]].drive.target.t.z() += rise;
+    }
+    w.Step();
+    r.finite &= w.bodies[prism].pose.t.allFinite();
+    if (i == steps - static_cast<int>(1.0 / w.params.dt)) z_mark = w.bodies[prism].pose.t.z();
+  }
+  double tip_z = 0;
+  for (int k : tips) tip_z += w.bodies[k].pose.t.z() / 3.0;
+  const double z = w.bodies[prism].pose.t.z();
+  r.creep = std::abs(z - z_mark) / 1.0;
+  r.drop = tip_z - z;
+  r.held = r.finite && r.drop < 0.005 && z > 0.03 + 0.5 * lift;
+  return r;
+}
+
+}  // namespace
+
+std::vector<ValidationResult> ValidatePinch(const ValidationOptions& opt) {
+  std::vector<ValidationResult> out;
+  char d[256];
+  const PinchRun hold = RunPinch(1.005, opt.quick);
+  std::snprintf(d, sizeof d, "mu = 1.005 mu*: %s, creep %.3g m/s over the last second (limit 1e-6)",
+                hold.held ? "held" : "DROPPED", hold.creep);
+  out.push_back(Result("pinch_hold", hold.held ? hold.creep : INFINITY, 1e-6, "m/s", d));
+  const PinchRun fall = RunPinch(0.995, opt.quick);
+  std::snprintf(d, sizeof d, "mu = 0.995 mu*: %s, sank %.3g m below the fingertips", fall.held ? "HELD" : "fell",
+                fall.drop);
+  // error: 0 when it fell, 1 when it was (wrongly) held
+  out.push_back(Result("pinch_fall", fall.finite && !fall.held ? 0.0 : 1.0, 0.0, "held (0/1)", d));
+  return out;
+}
+
+// ---- Hertz -----------------------------------------------------------------
+
+std::vector<ValidationResult> ValidateHertz(const ValidationOptions& opt) {
+  const double R = 0.02, E = 1e5, nu = 0.45;
+  const std::vector<double> loads = opt.quick ? std::vector<double>{0.5, 2.0} : std::vector<double>{0.25, 0.5, 1.0, 2.0};
+  World w;
+  w.params.dt = 0.01;  // quasi-static: any step is stable
+  w.params.gravity.setZero();
+  w.params.solver.tolerance = 1e-8;
+  w.params.solver.max_iterations = 2000;
+  w.params.default_friction = 0.0;
+  AddBody(w, PlaneSpec("table", Pose{}));
+  BodySpec s;
+  s.name = "sphere";
+  s.shape.type = EShape::Sphere;
+  s.shape.radius = R;
+  s.geometry.points = opt.quick ? 12000 : 20000;
+  s.geometry.control_points = opt.quick ? 3000 : 5000;
+  s.dynamics = EDynamics::QuasiStatic;
+  s.mass = 0.1;
+  s.linear_damping = 100.0;
+  s.angular_damping = 1.0;
+  s.deformation.model = EDeformation::Boussinesq;
+  s.deformation.young_modulus = E;
+  s.deformation.poisson_ratio = nu;
+  s.deformation.influence_radius = 0.016;
+  s.drive.enabled = true;
+  s.drive.angular_stiffness = Vec3::Constant(1.0);
+  s.pose = Pose::Translation(Vec3(0, 0, R));
+  s.drive.target = s.pose;
+  const int sphere = AddBody(w, s);
+  w.Finalize();
+  // the height at which the lowest control point touches the plane
+  double lowest = 0;
+  for (const Vec3& c : w.bodies[sphere].geometry.tree.control_points()) lowest = std::min(lowest, c.z());
+  w.bodies[sphere].pose.t.z() = -lowest;
+  w.bodies[sphere].pose_prev = w.bodies[sphere].pose;
+  std::vector<double> ld, lf, radius_err;
+  char d[512];
+  std::string detail;
+  for (double F : loads) {
+    w.bodies[sphere].drive.force = Vec3(0, 0, -F);
+    for (int i = 0; i < 300; ++i) w.Step();
+    const double depth = -lowest - w.bodies[sphere].pose.t.z();
+    // contact radius from the force-weighted second moment: for Hertz's pressure
+    // p ~ sqrt(1 - r^2/a^2), <r^2> = 2/5 a^2
+    const Vec3 c = w.bodies[sphere].pose.t;
+    double m0 = 0, m2 = 0;
+    for (const ContactRow& r : w.rows) {
+      const double f = std::max(0.0, r.r[0]);
+      m0 += f;
+      m2 += f * (r.world_point - Vec3(c.x(), c.y(), 0)).head<2>().squaredNorm();
+    }
+    const double a = m0 > 0 ? std::sqrt(2.5 * m2 / m0) : 0.0;
+    const double a_hertz = std::sqrt(R * depth);
+    radius_err.push_back(std::abs(a - a_hertz) / a_hertz);
+    ld.push_back(std::log(depth));
+    lf.push_back(std::log(F));
+    std::snprintf(d, sizeof d, "F %.2f N: d %.3f mm, a %.2f mm (sqrt(Rd) %.2f mm); ", F, 1e3 * depth, 1e3 * a,
+                  1e3 * a_hertz);
+    detail += d;
+  }
+  // least-squares slope of log F against log d
+  const int n = static_cast<int>(ld.size());
+  double mx = 0, my = 0;
+  for (int i = 0; i < n; ++i) {
+    mx += ld[i] / n;
+    my += lf[i] / n;
+  }
+  double sxy = 0, sxx = 0;
+  for (int i = 0; i < n; ++i) {
+    sxy += (ld[i] - mx) * (lf[i] - my);
+    sxx += (ld[i] - mx) * (ld[i] - mx);
+  }
+  const double exponent = sxx > 0 ? sxy / sxx : NAN;
+  std::vector<ValidationResult> out;
+  std::snprintf(d, sizeof d, "fitted exponent %.3f (Hertz 1.5); ", exponent);
+  out.push_back(Result("hertz_exponent", std::abs(exponent - 1.5), 0.1, "absolute", d + detail));
+  const double worst = *std::max_element(radius_err.begin(), radius_err.end());
+  out.push_back(Result("hertz_radius", worst, 0.10, "relative",
+                       "contact radius (from the force-weighted second moment) against sqrt(R d): " + detail));
+  return out;
+}
+
+std::vector<std::string> ValidationNames() { return {"incline", "pinch", "hertz"}; }
+
+bool RunValidation(const std::string& name, const ValidationOptions& opt, std::vector<ValidationResult>* out) {
+  auto append = [&](std::vector<ValidationResult> v) { out->insert(out->end(), v.begin(), v.end()); };
+  if (name == "incline" || name == "all") append(ValidateIncline(opt));
+  if (name == "pinch" || name == "all") append(ValidatePinch(opt));
+  if (name == "hertz" || name == "all") append(ValidateHertz(opt));
+  return name == "all" || std::find(ValidationNames().begin(), ValidationNames().end(), name) != ValidationNames().end();
+}
+
+}  // namespace gs::app

@@ -1,0 +1,36 @@
+// Validation scenes: physics with a known answer, each reporting its measured
+// error and whether it is within the stated tolerance.
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace gs::app {
+
+struct ValidationResult {
+  std::string name;
+  double error = 0.0;      ///< the measured error, in the unit `unit` names
+  double tolerance = 0.0;  ///< pass when error <= tolerance
+  bool pass = false;
+  std::string unit;
+  std::string detail;      ///< what was measured, in words
+};
+
+struct ValidationOptions {
+  bool quick = false;  ///< shorter holds and coarser sampling (the test suite)
+};
+
+/// A block on a plane tilted at atan(mu) x (1 -+ 1%): sticks below, slides above.
+std::vector<ValidationResult> ValidateIncline(const ValidationOptions& opt);
+/// A hexagonal prism pinched by three fingertips pushing with force P: holds for
+/// mu >= 1.005 mu*, falls for mu <= 0.995 mu*, mu* = m g / (3 P).
+std::vector<ValidationResult> ValidatePinch(const ValidationOptions& opt);
+/// A Boussinesq sphere pressed on a rigid plane: F ~ d^1.5 and a = sqrt(R d).
+std::vector<ValidationResult> ValidateHertz(const ValidationOptions& opt);
+
+/// Names accepted by `graspsim validate`.
+std::vector<std::string> ValidationNames();
+/// Runs one by name ("all" for every one); false when the name is unknown.
+bool RunValidation(const std::string& name, const ValidationOptions& opt, std::vector<ValidationResult>* out);
+
+}  // namespace gs::app

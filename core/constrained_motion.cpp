@@ -1,0 +1,91 @@
+// Constrained motion (paper Figure 1, last stage): the solved contact forces
+// move the articulations (dq = dq_free + A^-1 sum J^T f, already accumulated by
+// the solver) and the control points (u = u_free + sum phi F, eq. 7). A step
+// whose result is not finite is undone: the previous configuration is kept and
+// the step is reported as rejected.
+#include <algorithm>
+
+#include "core/world.h"
+
+namespace gs {
+namespace {
+
+bool StepIsFinite(const World& w) {
+  for (const Articulation& a : w.articulations)
+    if (!a.dq.allFinite() || !a.dq_free.allFinite()) return false;
+  for (const ContactRow& r : w.rows)
+    if (!r.r.allFinite()) return false;
+  for (const Body& b : w.bodies) {
+    if (!b.deform.enabled()) continue;
+    for (int j = 0; j < b.deform.size(); ++j)
+      if (!b.u_acc[j].allFinite() || !b.u_free[j].allFinite()) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+void ConstrainedMotion(World& w) {
+  const double dt = w.params.dt;
+  if (!StepIsFinite(w)) {
+    // undo: back to the start of the step, deformation untouched
+    w.profile.rejected = true;
+    for (Body& b : w.bodies) {
+      if (b.motion == EMotion::Free || b.motion == EMotion::Fingertip) b.pose = b.pose_prev;
+      b.velocity.setZero();
+      b.angular_velocity.setZero();
+    }
+    for (Finger& f : w.hand.fingers) f.q = f.q_prev;
+    for (ContactRow& r : w.rows) r.r.setZero();
+  } else {
+    for (Articulation& a : w.articulations) {
+      const Vec6 dq = a.dq_free + a.dq;
+      if (a.finger >= 0) {
+        Finger& f = w.hand.fingers[a.finger];
+        f.q = ClampJoints(f.model, f.q_prev + dq.head<4>());
+        f.kin = FingerForward(f.model, w.hand.pose, f.q);
+        if (f.body >= 0) {
+          Body& b = w.bodies[f.body];
+          b.pose = f.kin.tip;
+          b.velocity = (b.pose.t - b.pose_prev.t) / dt;
+        }
+      } else {
+        Body& b = w.bodies[a.body];
+        b.pose = AdvancePose(b.pose_prev, dq);
+        b.velocity = dq.head<3>() / dt;
+        b.angular_velocity = dq.tail<3>() / dt;
+      }
+    }
+    // control points: eq. 7, and what refit needs to know
+    for (Body& b : w.bodies) {
+      if (!b.deform.enabled()) continue;
+      for (int j = 0; j < b.deform.size(); ++j) {
+        const Vec3 u_new = b.u_free[j] + b.u_acc[j];
+        if ((u_new - b.u[j]).squaredNorm() > 1e-24) b.u_changed[j] = 1;
+        b.u[j] = u_new;
+      }
+      for (int j = 0; j < b.deform.size(); ++j) {
+        if (!b.u_changed[j]) continue;
+        const int* idx;
+        const double* phi;
+        const int n = b.deform.Influence(j, &idx, &phi);
+        double spread = 0.0;
+        for (int k = 0; k < n; ++k) spread = std::max(spread, (b.u[idx[k]] - b.u[j]).norm());
+        b.u_spread[j] = spread;
+      }
+    }
+  }
+  // the end of this step is the start of the next
+  for (Body& b : w.bodies) b.pose_prev = b.pose;
+  for (Finger& f : w.hand.fingers) f.q_prev = f.q;
+  w.hand.pose_prev = w.hand.pose;
+
+  // keep this step's forces (world frame) for the next warm start, sorted by key
+  w.warm_next.clear();
+  for (const ContactRow& r : w.rows) w.warm_next.emplace_back(r.contact.key, r.frame.transpose() * r.r);
+  std::sort(w.warm_next.begin(), w.warm_next.end(),
+            [](const std::pair<uint64_t, Vec3>& a, const std::pair<uint64_t, Vec3>& b) { return a.first < b.first; });
+  std::swap(w.warm_prev, w.warm_next);
+}
+
+}  // namespace gs

@@ -1,0 +1,117 @@
+// Contact space (the paper's "LCP construction"): for every contact, its frame
+// (n, t1, t2), its free gap and free slip, the rows H = +-frame^T J of its two
+// articulations, the eq. 8 interpolation of its points over the control points,
+// and the diagonal block W_cc = sum H A^-1 H^T + W_deform,cc (eq. 12). The
+// off-diagonal blocks are never formed (the solver goes through the bodies).
+// Forces are warm started from the previous step's force of the same contact
+// key, re-expressed in the new frame.
+#include <algorithm>
+#include <chrono>
+
+#include "core/world.h"
+
+namespace gs {
+namespace {
+
+// 3x6 Jacobian of a material point at world position p of a free body (dx, dtheta)
+Eigen::Matrix<double, 3, 6> FreeBodyJacobian(const Vec3& p, const Vec3& center) {
+  Eigen::Matrix<double, 3, 6> J;
+  J.leftCols<3>().setIdentity();
+  J.rightCols<3>() = -Skew(p - center);
+  return J;
+}
+
+// interpolated displacement of a contact side from per-control-point values
+Vec3 SideDisplacement(const ContactSide& s, const std::vector<Vec3>& u) {
+  Vec3 d = Vec3::Zero();
+  for (int k = 0; k < s.count; ++k) d += s.w[k] * u[s.idx[k]];
+  return d;
+}
+
+}  // namespace
+
+void BuildContactSpace(World& w) {
+  using Clock = std::chrono::steady_clock;
+  double t_rigid = 0.0, t_deform = 0.0;
+  w.rows.clear();
+  const auto& items = w.contacts.items;
+  for (const Contact& c : items) {
+    const auto ta = Clock::now();
+    ContactRow row;
+    row.contact = c;
+    const Vec3 n = c.normal;
+    const Vec3 t1 = AnyPerpendicular(n);
+    const Vec3 t2 = n.cross(t1);
+    row.frame.row(0) = n;
+    row.frame.row(1) = t1;
+    row.frame.row(2) = t2;
+    Vec3 world_pt[2];
+    Vec3 slip = Vec3::Zero();
+    row.w_diag.setZero();
+    for (int s = 0; s < 2; ++s) {
+      const Body& b = w.bodies[c.body[s]];
+      ContactSide& side = row.side[s];
+      side.body = c.body[s];
+      side.sign = s == 0 ? 1.0 : -1.0;
+      world_pt[s] = b.pose.Apply(c.anchor[s]);
+      // free motion of the material point over the step
+      slip += side.sign * (world_pt[s] - b.pose_prev.Apply(c.anchor[s]));
+      side.articulation = b.articulation;
+      side.count = 0;
+      if (b.articulation < 0) continue;
+      const Articulation& a = w.articulations[b.articulation];
+      Eigen::Matrix<double, 3, 6> J = Eigen::Matrix<double, 3, 6>::Zero();
+      if (a.finger >= 0) {
+        J.leftCols<4>() = FingerPointJacobian(w.hand.fingers[a.finger].kin, world_pt[s]);
+      } else {
+        J = FreeBodyJacobian(world_pt[s], b.pose.t);
+      }
+      side.h = side.sign * row.frame * J;
+      row.w_diag += side.h * a.a_inv * side.h.transpose();
+    }
+    row.world_point = 0.5 * (world_pt[0] + world_pt[1]);
+    const auto tb = Clock::now();
+
+    // deformable part: eq. 8 weights and sum_ij w_i w_j phi_ij on the diagonal
+    double gap_def = 0.0;
+    Vec3 slip_def = Vec3::Zero();
+    for (int s = 0; s < 2; ++s) {
+      const Body& b = w.bodies[c.body[s]];
+      ContactSide& side = row.side[s];
+      if (!b.deform.enabled()) continue;
+      if (s == 0) {
+        // the query side's contact point is the control point itself
+        side.count = 1;
+        side.idx[0] = c.leaf;
+        side.w[0] = 1.0;
+      } else {
+        if (c.surface_leaf < 0) continue;
+        side.count = b.deform.Interpolate(c.anchor[1], c.surface_leaf, side.idx, side.w, ContactSide::kMaxWeights);
+      }
+      double k = 0.0;
+      for (int i = 0; i < side.count; ++i)
+        for (int j = 0; j < side.count; ++j) k += side.w[i] * side.w[j] * b.deform.Kernel(side.idx[i], side.idx[j]);
+      row.w_diag += k * Mat3::Identity();  // isotropic kernel: frame R R^T frame^T = I
+      const Vec3 uf = b.pose.Rotate(SideDisplacement(side, b.u_free));
+      const Vec3 up = b.pose_prev.Rotate(SideDisplacement(side, b.u));
+      gap_def += side.sign * n.dot(uf);
+      slip_def += side.sign * (uf - up);
+    }
+    // normal: position-level gap after free motion (eq. 6); tangents: free slip over the step
+    row.q = Vec3(c.gap + gap_def, t1.dot(slip + slip_def), t2.dot(slip + slip_def));
+    row.mu = w.Friction(c.body[0], c.body[1]);
+    row.r.setZero();
+    // warm start: the previous world force of the same key, in the new frame
+    const auto it = std::lower_bound(w.warm_prev.begin(), w.warm_prev.end(), c.key,
+                                     [](const std::pair<uint64_t, Vec3>& e, uint64_t k) { return e.first < k; });
+    if (it != w.warm_prev.end() && it->first == c.key) row.r = row.frame * it->second;
+    w.rows.push_back(row);
+    const auto tc = Clock::now();
+    t_rigid += std::chrono::duration<double>(tb - ta).count();
+    t_deform += std::chrono::duration<double>(tc - tb).count();
+  }
+  w.profile.fill_w_rigid = t_rigid;
+  w.profile.fill_w_deform = t_deform;
+}
+
+}  // namespace gs

@@ -1,0 +1,115 @@
+// Free motion (paper Figure 1, first stage): every articulation moves under
+// external forces, motors and drives, without contact forces, with implicit
+// Euler. For a free body with displacement dq = (dx, dtheta) over the step:
+//   (M/dt^2 + B/dt + K_drive + D_drive/dt) dq = G_ext + M v/dt + K_drive e_drive
+// (the inertial variant); the quasi-static model of the paper (eq. 15) drops M.
+// For a finger, joint space, motors as implicit PD toward the joint targets:
+//   ((B + K_d)/dt + K_p) dq = K_p (q_target - q).
+// The inverse mobility A^-1 is kept: the solver maps contact forces through it
+// (W_rigid = J (A)^-1 J^T, eq. 17). Deformation relaxes: u_free = (C D/dt) u.
+#include <algorithm>
+
+#include "core/world.h"
+
+namespace gs {
+namespace {
+
+Vec3 RotationVector(const Mat3& R) {
+  const Eigen::AngleAxisd aa(R);
+  return aa.axis() * aa.angle();
+}
+
+}  // namespace
+
+/// The pose reached from `start` by the displacement (dx, dtheta).
+Pose AdvancePose(const Pose& start, const Vec6& dq) {
+  Pose p;
+  p.t = start.t + dq.head<3>();
+  const Vec3 dth = dq.tail<3>();
+  const double angle = dth.norm();
+  Mat3 R = start.R;
+  if (angle > 0.0) R = Eigen::AngleAxisd(angle, dth / angle).toRotationMatrix() * start.R;
+  // keep R orthonormal over millions of steps
+  p.R = Quat(R).normalized().toRotationMatrix();
+  return p;
+}
+
+void FreeMotion(World& w) {
+  const double dt = w.params.dt;
+  // pose_prev and q_prev hold the configuration at the end of the last step;
+  // kinematic bodies and the hand may already have been moved to this step's pose
+
+  for (Articulation& a : w.articulations) {
+    a.dq.setZero();
+    if (a.finger >= 0) {
+      // finger: diagonal joint-space mobility with the motor stiffness implicit
+      Finger& f = w.hand.fingers[a.finger];
+      a.a_inv.setZero();
+      a.dq_free.setZero();
+      for (int j = 0; j < 4; ++j) {
+        const double A = (f.joint_damping + f.motor_damping) / dt + f.motor_stiffness;
+        a.a_inv(j, j) = 1.0 / A;
+        a.dq_free[j] = f.motor_stiffness * (f.q_target[j] - f.q[j]) / A;
+      }
+      continue;
+    }
+    Body& b = w.bodies[a.body];
+    const Mat3 I_world = b.pose.R * b.inertia * b.pose.R.transpose();
+    const bool inertial = b.dynamics == EDynamics::Inertial;
+    Mat3 A_lin = Mat3::Identity() * (b.linear_damping / dt);
+    Mat3 A_ang = Mat3::Identity() * (b.angular_damping / dt);
+    Vec3 g_lin = b.mass * w.params.gravity;
+    Vec3 g_ang = Vec3::Zero();
+    if (inertial) {
+      A_lin += Mat3::Identity() * (b.mass / (dt * dt));
+      A_ang += I_world / (dt * dt);
+      g_lin += b.mass * b.velocity / dt;
+      g_ang += I_world * b.angular_velocity / dt;
+    }
+    if (b.drive.enabled) {
+      // damped spring to the target pose, gains in the target frame, implicit
+      const Mat3& Rt = b.drive.target.R;
+      const Mat3 K = Rt * b.drive.stiffness.asDiagonal() * Rt.transpose();
+      const Mat3 D = Rt * b.drive.damping.asDiagonal() * Rt.transpose();
+      const Mat3 Ka = Rt * b.drive.angular_stiffness.asDiagonal() * Rt.transpose();
+      const Mat3 Da = Rt * b.drive.angular_damping.asDiagonal() * Rt.transpose();
+      A_lin += K + D / dt;
+      A_ang += Ka + Da / dt;
+      Vec3 spring = K * (b.drive.target.t - b.pose.t);
+      const double mag = spring.norm();
+      if (mag > b.drive.max_force) spring *= b.drive.max_force / mag;
+      g_lin += spring + Rt * b.drive.force;
+      g_ang += Ka * RotationVector(b.drive.target.R * b.pose.R.transpose());
+    }
+    a.a_inv.setZero();
+    a.a_inv.topLeftCorner<3, 3>() = A_lin.inverse();
+    a.a_inv.bottomRightCorner<3, 3>() = A_ang.inverse();
+    a.dq_free.head<3>() = a.a_inv.topLeftCorner<3, 3>() * g_lin;
+    a.dq_free.tail<3>() = a.a_inv.bottomRightCorner<3, 3>() * g_ang;
+  }
+
+  // tentative configuration after free motion: what collision detection sees
+  for (Articulation& a : w.articulations) {
+    if (a.finger >= 0) {
+      Finger& f = w.hand.fingers[a.finger];
+      const Vec4 q_free = ClampJoints(f.model, f.q + a.dq_free.head<4>());
+      a.dq_free.head<4>() = q_free - f.q;
+      f.kin = FingerForward(f.model, w.hand.pose, q_free);
+      if (f.body >= 0) w.bodies[f.body].pose = f.kin.tip;
+    } else {
+      Body& b = w.bodies[a.body];
+      b.pose = AdvancePose(b.pose_prev, a.dq_free);
+    }
+  }
+
+  // deformation relaxes toward the rest shape
+  for (Body& b : w.bodies) {
+    if (!b.deform.enabled()) continue;
+    for (int j = 0; j < b.deform.size(); ++j) {
+      b.u_free[j] = b.deform.Relaxation(j) * b.u[j];
+      b.u_acc[j].setZero();
+    }
+  }
+}
+
+}  // namespace gs

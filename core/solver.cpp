@@ -1,0 +1,92 @@
+// Solver stage: nonsmooth block Gauss-Seidel over the contacts with the exact
+// local Coulomb solve (nsgs.h, local_solver.h), on a matrix-free
+// Delassus operator: W = W_rigid + W_deform (eq. 12) is applied through the
+// bodies. A change dr of one contact's force moves its articulations'
+// accumulators (dq += A^-1 H^T dr) and, for deformable bodies, the control
+// points under the force (u_acc += phi F, eq. 13); a contact reads its gap back
+// from them. A sweep costs O(contacts x (dof + influence)), never O(contacts^2).
+#include <chrono>
+
+#include "core/world.h"
+
+namespace gs {
+namespace {
+
+class WorldDelassus {
+ public:
+  explicit WorldDelassus(World& w) : w_(w) {}
+
+  int NumContacts() const { return static_cast<int>(w_.rows.size()); }
+  Mat3 DiagonalBlock(int c) const { return w_.rows[c].w_diag; }
+  double Mu(int c) const { return w_.rows[c].mu; }
+  double FreeNormSquared() const {
+    double s = 0.0;
+    for (const ContactRow& r : w_.rows) s += r.q.squaredNorm();
+    return s;
+  }
+
+  Vec3 Velocity(int c, const Vec3* /*r*/) const {
+    const ContactRow& row = w_.rows[c];
+    Vec3 u = row.q;
+    for (const ContactSide& s : row.side) {
+      if (s.articulation >= 0) u += s.h * w_.articulations[s.articulation].dq;
+      if (s.count > 0) {
+        const Body& b = w_.bodies[s.body];
+        Vec3 d = Vec3::Zero();
+        for (int k = 0; k < s.count; ++k) d += s.w[k] * b.u_acc[s.idx[k]];
+        u += s.sign * (row.frame * b.pose.Rotate(d));
+      }
+    }
+    return u;
+  }
+
+  void ApplyDelta(int c, const Vec3& dr) {
+    const ContactRow& row = w_.rows[c];
+    for (const ContactSide& s : row.side) {
+      if (s.articulation >= 0) {
+        Articulation& a = w_.articulations[s.articulation];
+        a.dq += a.a_inv * (s.h.transpose() * dr);
+      }
+      if (s.count > 0) {
+        Body& b = w_.bodies[s.body];
+        // the force on this body, in its rest frame, spread over its control points
+        const Vec3 f = b.pose.RotateInverse(s.sign * (row.frame.transpose() * dr));
+        for (int k = 0; k < s.count; ++k) {
+          const int* idx;
+          const double* phi;
+          const int n = b.deform.Influence(s.idx[k], &idx, &phi);
+          const Vec3 fk = s.w[k] * f;
+          for (int m = 0; m < n; ++m) b.u_acc[idx[m]] += phi[m] * fk;
+        }
+      }
+    }
+  }
+
+ private:
+  World& w_;
+};
+
+}  // namespace
+
+void SolveContacts(World& w) {
+  using Clock = std::chrono::steady_clock;
+  const auto t0 = Clock::now();
+  const int n = static_cast<int>(w.rows.size());
+  w.solve_r.resize(n);
+  WorldDelassus op(w);
+  // accumulators start from the warm-start forces
+  for (int c = 0; c < n; ++c) {
+    w.solve_r[c] = w.rows[c].r;
+    op.ApplyDelta(c, w.rows[c].r);
+  }
+  if (n > 0) {
+    const NsgsResult res = SolveNsgs(op, w.solve_r.data(), w.params.solver, w.gs_scratch);
+    w.profile.iterations = res.iterations;
+    w.profile.residual = res.error;
+    w.profile.converged = res.converged;
+  }
+  for (int c = 0; c < n; ++c) w.rows[c].r = w.solve_r[c];
+  w.profile.solve = std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+}  // namespace gs

@@ -1,0 +1,175 @@
+#include "core/world.h"
+
+#include <algorithm>
+#include <chrono>
+
+namespace gs {
+
+CollisionShape Body::Shape() const {
+  CollisionShape s;
+  s.is_plane = geometry.is_plane;
+  if (!s.is_plane) {
+    s.cloud = &geometry.cloud;
+    s.tree = &geometry.tree;
+  }
+  s.mls = geometry.mls;
+  s.emits_contacts = emits_contacts;
+  return s;
+}
+
+Mat3 SolidInertia(const ShapeDesc& shape, double mass) {
+  Mat3 I = Mat3::Zero();
+  switch (shape.type) {
+    case EShape::Box: {
+      const Vec3 e = 2.0 * shape.half_extents;
+      I.diagonal() << e.y() * e.y() + e.z() * e.z(), e.x() * e.x() + e.z() * e.z(), e.x() * e.x() + e.y() * e.y();
+      I *= mass / 12.0;
+      break;
+    }
+    case EShape::Sphere:
+      I.diagonal().setConstant(0.4 * mass * shape.radius * shape.radius);
+      break;
+    case EShape::Ellipsoid: {
+      const Vec3 a = shape.semi_axes;
+      I.diagonal() << a.y() * a.y() + a.z() * a.z(), a.x() * a.x() + a.z() * a.z(), a.x() * a.x() + a.y() * a.y();
+      I *= mass / 5.0;
+      break;
+    }
+    case EShape::Cylinder:
+    case EShape::Capsule:
+    case EShape::Mesh: {
+      // a solid cylinder of the same radius and length (capsule caps included in the length)
+      const double r = shape.radius;
+      const double len = 2.0 * shape.half_length + (shape.type == EShape::Capsule ? 2.0 * r : 0.0);
+      const double ixx = mass * (3.0 * r * r + len * len) / 12.0;
+      I.diagonal() << ixx, ixx, 0.5 * mass * r * r;
+      break;
+    }
+  }
+  return I;
+}
+
+int AddBody(World& w, const BodySpec& spec, EGeometryError* error) {
+  Body b;
+  b.name = spec.name;
+  EGeometryError e = EGeometryError::None;
+  if (spec.is_plane) {
+    BuildPlaneGeometry(&b.geometry);
+  } else if (spec.mesh) {
+    e = BuildMeshGeometry(*spec.mesh, spec.geometry, &b.geometry);
+  } else {
+    e = BuildShapeGeometry(spec.shape, spec.geometry, &b.geometry);
+  }
+  if (error) *error = e;
+  if (e != EGeometryError::None) return -1;
+  b.motion = spec.is_plane ? EMotion::Fixed : spec.motion;
+  b.dynamics = spec.dynamics;
+  b.mass = spec.mass;
+  b.inertia = spec.is_plane ? Mat3::Zero() : SolidInertia(b.geometry.shape, spec.mass);
+  b.linear_damping = spec.linear_damping;
+  b.angular_damping = spec.angular_damping;
+  b.pose = b.pose_prev = spec.pose;
+  b.velocity = spec.velocity;
+  b.drive = spec.drive;
+  b.emits_contacts = spec.emits_contacts;
+  if (!spec.is_plane && spec.deformation.model != EDeformation::Rigid) {
+    const int cps = b.geometry.tree.num_leaves();
+    b.deform.Build(b.geometry.tree.control_points(), b.geometry.area / cps, spec.deformation, w.params.dt);
+  }
+  w.bodies.push_back(std::move(b));
+  return static_cast<int>(w.bodies.size()) - 1;
+}
+
+double World::Friction(int a, int b) const {
+  const int n = static_cast<int>(bodies.size());
+  if (a < 0 || b < 0 || a >= n || b >= n || friction_.empty()) return params.default_friction;
+  return friction_[static_cast<size_t>(a) * n + b];
+}
+
+void World::SetFriction(int a, int b, double mu) {
+  const int n = static_cast<int>(bodies.size());
+  if (friction_.size() != static_cast<size_t>(n) * n) friction_.assign(static_cast<size_t>(n) * n, params.default_friction);
+  friction_[static_cast<size_t>(a) * n + b] = mu;
+  friction_[static_cast<size_t>(b) * n + a] = mu;
+}
+
+void World::Finalize() {
+  const int n = static_cast<int>(bodies.size());
+  if (friction_.size() != static_cast<size_t>(n) * n) {
+    std::vector<double> old = friction_;
+    friction_.assign(static_cast<size_t>(n) * n, params.default_friction);
+  }
+  // articulations: 6 dof per free body, 4 per finger
+  articulations.clear();
+  int max_leaves = 1;
+  for (int i = 0; i < n; ++i) {
+    Body& b = bodies[i];
+    b.articulation = -1;
+    if (b.motion == EMotion::Free) {
+      Articulation a;
+      a.ndof = 6;
+      a.body = i;
+      b.articulation = static_cast<int>(articulations.size());
+      articulations.push_back(a);
+    }
+    const int leaves = b.geometry.is_plane ? 0 : b.geometry.tree.num_leaves();
+    max_leaves = std::max(max_leaves, leaves);
+    b.u.assign(leaves, Vec3::Zero());
+    b.u_free.assign(leaves, Vec3::Zero());
+    b.u_acc.assign(leaves, Vec3::Zero());
+    b.u_spread.assign(leaves, 0.0);
+    b.u_changed.assign(leaves, 0);
+    b.pose_prev = b.pose;
+  }
+  for (size_t f = 0; f < hand.fingers.size(); ++f) {
+    Finger& fg = hand.fingers[f];
+    Articulation a;
+    a.ndof = 4;
+    a.finger = static_cast<int>(f);
+    a.body = fg.body;
+    fg.articulation = static_cast<int>(articulations.size());
+    if (fg.body >= 0) {
+      bodies[fg.body].articulation = fg.articulation;
+      bodies[fg.body].finger = static_cast<int>(f);
+      bodies[fg.body].motion = EMotion::Fingertip;
+    }
+    articulations.push_back(a);
+    fg.q_prev = fg.q;
+    fg.kin = FingerForward(fg.model, hand.pose, fg.q);
+    if (fg.body >= 0) bodies[fg.body].pose = bodies[fg.body].pose_prev = fg.kin.tip;
+  }
+  hand.pose_prev = hand.pose;
+
+  // buffers: nothing grows during a step below these capacities
+  contacts.Reserve(params.max_contacts);
+  rows.reserve(params.max_contacts);
+  collision_scratch.Reserve(max_leaves, 16 * params.max_contacts);
+  warm_prev.reserve(params.max_contacts);
+  warm_next.reserve(params.max_contacts);
+  solve_r.reserve(params.max_contacts);
+  gs_scratch.Reserve(params.max_contacts);
+}
+
+void World::Step() {
+  using Clock = std::chrono::steady_clock;
+  const auto t0 = Clock::now();
+  profile = StepProfile{};
+  FreeMotion(*this);
+  const auto t1 = Clock::now();
+  DetectCollisions(*this);
+  BuildContactSpace(*this);
+  SolveContacts(*this);
+  const auto t2 = Clock::now();
+  ConstrainedMotion(*this);
+  const auto t3 = Clock::now();
+  profile.free_motion = std::chrono::duration<double>(t1 - t0).count();
+  profile.constrained_motion = std::chrono::duration<double>(t3 - t2).count();
+  profile.total = std::chrono::duration<double>(t3 - t0).count();
+  profile.contacts = static_cast<int>(rows.size());
+  time += params.dt;
+  ++step_count;
+  if (profile.rejected) ++rejected_steps;
+  if (!profile.converged) ++unconverged_steps;
+}
+
+}  // namespace gs

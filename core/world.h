@@ -1,0 +1,213 @@
+// The World owns every body, the hand, the contacts and all step buffers. One
+// time step follows the paper's Figure 1, one stage per file:
+//
+//   FreeMotion          free_motion.cpp         external forces, motors, drives,
+//                                               relaxation of deformation
+//   DetectCollisions    collision_detection.cpp refit, sphere-tree traversal,
+//                                               MLS interpenetration
+//   BuildContactSpace   contact_space.cpp       frames, free gaps, Jacobians,
+//                                               diagonal Delassus blocks, warm start
+//   SolveContacts       solver.cpp              block Gauss-Seidel, exact Coulomb
+//   ConstrainedMotion   constrained_motion.cpp  apply forces: poses, joints,
+//                                               control-point displacements
+//
+// The rigid part of the Delassus operator is never formed: each articulation
+// (a free body: 6 dof; a finger: 4 joints) keeps its inverse mobility A^-1 and an
+// accumulator dq = A^-1 sum J^T f, so a contact reads its gap from its bodies.
+// The deformable part goes through the sparse influence of each body's control
+// points. All buffers are sized by Finalize(); Step() does not allocate.
+#pragma once
+
+#include <string>
+
+#include "core/body_geometry.h"
+#include "core/collision.h"
+#include "core/deformation.h"
+#include "core/finger.h"
+#include "core/nsgs.h"
+#include "core/sampling.h"
+#include "core/sphere_tree.h"
+#include "core/types.h"
+
+namespace gs {
+
+enum class EMotion { Free, Fixed, Kinematic, Fingertip };
+enum class EDynamics { Inertial, QuasiStatic };
+
+/// A damped spring pulling a free body toward a target pose (virtual coupling),
+/// gains in the target frame, plus a constant force in that frame.
+struct Drive {
+  bool enabled = false;
+  Vec3 stiffness = Vec3::Zero();          ///< N/m per target axis
+  Vec3 damping = Vec3::Zero();            ///< N s/m
+  Vec3 angular_stiffness = Vec3::Zero();  ///< N m/rad
+  Vec3 angular_damping = Vec3::Zero();    ///< N m s/rad
+  Vec3 force = Vec3::Zero();              ///< N, target frame
+  double max_force = 1e300;               ///< clamp of the spring force (N)
+  Pose target;
+};
+
+struct Body {
+  std::string name;
+  EMotion motion = EMotion::Free;
+  EDynamics dynamics = EDynamics::Inertial;
+  double mass = 0.0;                          ///< kg
+  Mat3 inertia = Mat3::Zero();                ///< body-frame inertia (kg m^2)
+  double linear_damping = 0.0;                ///< B, N s/m
+  double angular_damping = 0.0;               ///< B, N m s/rad
+  Pose pose, pose_prev;                       ///< current and start-of-step pose
+  Vec3 velocity = Vec3::Zero(), angular_velocity = Vec3::Zero();
+  Drive drive;
+  BodyGeometry geometry;
+  DeformableModel deform;
+  std::vector<Vec3> u;        ///< control-point displacements (rest frame, m)
+  std::vector<Vec3> u_free;   ///< this step's free displacements
+  std::vector<Vec3> u_acc;    ///< displacement from this step's contact forces
+  std::vector<double> u_spread;
+  std::vector<uint8_t> u_changed;
+  bool emits_contacts = true; ///< false: one-pass contact, only other bodies' control points touch this one
+  int finger = -1;            ///< for a fingertip, its finger
+  int articulation = -1;      ///< index into World::articulations, -1 when it has no dofs
+  CollisionShape Shape() const;
+};
+
+struct Finger {
+  std::string name;
+  FingerModel model;
+  Vec4 q = Vec4::Zero(), q_prev = Vec4::Zero(), q_target = Vec4::Zero();
+  double motor_stiffness = 1.0;  ///< N m/rad
+  double motor_damping = 0.0;    ///< N m s/rad
+  double joint_damping = 0.0;    ///< B of the quasi-static model (N m s/rad)
+  int body = -1;                 ///< the fingertip body
+  int articulation = -1;
+  FingerKinematics kin;          ///< at the free-motion configuration during a step
+};
+
+struct Hand {
+  Pose pose, pose_prev;
+  std::vector<Finger> fingers;
+};
+
+/// The generalized coordinates of a free body or a finger, as the solver sees them.
+struct Articulation {
+  int ndof = 0;
+  int body = -1;
+  int finger = -1;
+  Mat6 a_inv = Mat6::Zero();  ///< inverse generalized mobility (dof units per N)
+  Vec6 dq_free = Vec6::Zero();
+  Vec6 dq = Vec6::Zero();     ///< accumulated A^-1 J^T f of the current forces
+};
+
+/// Eq. 8 interpolation of one contact point over its body's control points.
+struct ContactSide {
+  static constexpr int kMaxWeights = 6;
+  int body = -1;
+  int articulation = -1;
+  int count = 0;
+  int idx[kMaxWeights];
+  double w[kMaxWeights];
+  Eigen::Matrix<double, 3, 6> h = Eigen::Matrix<double, 3, 6>::Zero();  ///< sign * frame^T * J
+  double sign = 1.0;
+};
+
+/// One row block of the contact space (normal first, then the two tangents).
+struct ContactRow {
+  Contact contact;
+  Mat3 frame;       ///< rows n, t1, t2 (world)
+  Vec3 world_point; ///< contact point (world, m)
+  ContactSide side[2];
+  Mat3 w_diag;      ///< W_cc (m/N)
+  Vec3 q;           ///< free gap (normal) and free slip (tangents) (m)
+  Vec3 r;           ///< force (N) in the frame
+  double mu = 0.0;
+};
+
+struct WorldParams {
+  double dt = 1e-3;
+  Vec3 gravity = Vec3(0, 0, -9.81);
+  CollisionParams collision;
+  int refit_stop_level = 3;
+  NsgsParams solver;
+  int max_contacts = 8192;
+  double default_friction = 0.8;
+};
+
+/// Per-stage times of the last step (s), in the layout of the paper's Figures 6 and 7.
+struct StepProfile {
+  double free_motion = 0, traverse = 0, interpenetration = 0, refit = 0;
+  double fill_w_rigid = 0, fill_w_deform = 0, solve = 0, constrained_motion = 0, total = 0;
+  int contacts = 0;
+  int iterations = 0;
+  double residual = 0.0;
+  bool converged = true;
+  bool rejected = false;  ///< the step produced a non-finite value and was undone
+  CollisionStats collision;
+};
+
+class World {
+ public:
+  WorldParams params;
+  std::vector<Body> bodies;
+  Hand hand;
+  std::vector<Articulation> articulations;
+  std::vector<ContactRow> rows;
+  ContactBuffer contacts;
+  StepProfile profile;
+  double time = 0.0;
+  int64_t step_count = 0;
+  int64_t rejected_steps = 0;
+  int64_t unconverged_steps = 0;
+
+  /// Friction coefficient of a body pair (default unless set).
+  double Friction(int a, int b) const;
+  void SetFriction(int a, int b, double mu);
+
+  /// Sizes every buffer and the articulations; call after adding bodies and fingers.
+  void Finalize();
+  /// One time step of params.dt.
+  void Step();
+
+  // internals shared by the stages
+  std::vector<double> friction_;
+  CollisionScratch collision_scratch;
+  NsgsScratch gs_scratch;
+  std::vector<std::pair<uint64_t, Vec3>> warm_prev, warm_next;  ///< previous step's world forces by key
+  std::vector<Vec3> solve_r;
+};
+
+/// Everything needed to add a body to a world.
+struct BodySpec {
+  std::string name;
+  ShapeDesc shape;
+  bool is_plane = false;
+  const TriangleMesh* mesh = nullptr;  ///< when set, sampled instead of `shape`
+  GeometryOptions geometry;
+  Pose pose;
+  Vec3 velocity = Vec3::Zero();
+  EMotion motion = EMotion::Free;
+  EDynamics dynamics = EDynamics::Inertial;
+  double mass = 0.0;
+  double linear_damping = 0.0, angular_damping = 0.0;
+  DeformationParams deformation;
+  Drive drive;
+  bool emits_contacts = true;
+};
+
+/// Builds the body's geometry and deformation and appends it (call before Finalize).
+/// Returns the new body's index, or -1 with *error set.
+int AddBody(World& w, const BodySpec& spec, EGeometryError* error = nullptr);
+
+/// The pose reached from `start` by the displacement (dx, dtheta) (world frame).
+Pose AdvancePose(const Pose& start, const Vec6& dq);
+
+/// Inertia of a solid of uniform density (body frame, about the centroid).
+Mat3 SolidInertia(const ShapeDesc& shape, double mass);
+
+// the stages, in order
+void FreeMotion(World& w);
+void DetectCollisions(World& w);
+void BuildContactSpace(World& w);
+void SolveContacts(World& w);
+void ConstrainedMotion(World& w);
+
+}  // namespace gs

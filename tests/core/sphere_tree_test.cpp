@@ -1,0 +1,196 @@
+#include "core/sphere_tree.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <random>
+
+#include "core/body_geometry.h"
+#include "core/point_grid.h"
+
+namespace gs {
+namespace {
+
+BodyGeometry MakeGeometry(const ShapeDesc& shape, int points, int control_points) {
+  BodyGeometry g;
+  GeometryOptions opt;
+  opt.points = points;
+  opt.control_points = control_points;
+  opt.seed = 3;
+  EXPECT_EQ(BuildShapeGeometry(shape, opt, &g), EGeometryError::None);
+  return g;
+}
+
+ShapeDesc Ellipsoid() {
+  ShapeDesc s;
+  s.type = EShape::Ellipsoid;
+  s.semi_axes = Vec3(0.008, 0.008, 0.011);
+  return s;
+}
+
+ShapeDesc Cube(double edge) {
+  ShapeDesc s;
+  s.type = EShape::Box;
+  s.half_extents = Vec3::Constant(edge / 2);
+  return s;
+}
+
+// every point belongs to exactly one leaf, every node bounds its points
+void CheckStructure(const BodyGeometry& g, int leaves) {
+  const SphereTree& t = g.tree;
+  ASSERT_EQ(t.num_leaves(), leaves);
+  ASSERT_EQ(static_cast<int>(t.nodes().size()), 2 * leaves - 1);
+  std::vector<int> seen(g.cloud.size(), 0);
+  for (const TreeNode& n : t.nodes()) {
+    for (int k = n.first; k < n.first + n.count; ++k) {
+      const int i = t.point_order()[k];
+      EXPECT_LE((g.cloud.positions[i] - n.center).norm(), n.radius + 1e-12);
+      if (n.IsLeaf()) ++seen[i];
+    }
+    if (!n.IsLeaf()) {
+      EXPECT_EQ(t.node(n.child[0]).count + t.node(n.child[1]).count, n.count);
+      EXPECT_EQ(t.node(n.child[0]).parent, &n - t.nodes().data());
+      EXPECT_GT(n.lod_count, 0);
+    }
+  }
+  for (size_t i = 0; i < seen.size(); ++i) ASSERT_EQ(seen[i], 1) << "point " << i;
+  for (int l = 0; l < leaves; ++l) EXPECT_EQ(t.node(t.leaf_node(l)).leaf, l);
+}
+
+// dense points of the MLS surface must each lie inside some leaf sphere
+void CheckCoverage(const BodyGeometry& g, const ShapeDesc& shape, int samples) {
+  const SphereTree& t = g.tree;
+  PointGrid leaf_grid;
+  leaf_grid.Build(t.control_points(), 2 * g.spacing);
+  double max_r = 0;
+  for (int l = 0; l < t.num_leaves(); ++l) max_r = std::max(max_r, t.node(t.leaf_node(l)).radius);
+  PointGrid grid;
+  grid.Build(g.cloud.positions, 2 * g.spacing);
+  std::mt19937_64 rng(11);
+  std::normal_distribution<double> nd;
+  std::vector<int> nbrs, leaves;
+  int uncovered = 0, projected = 0;
+  for (int s = 0; s < samples; ++s) {
+    // a random direction from the centre, pushed onto the analytic surface, then onto the MLS surface
+    Vec3 d(nd(rng), nd(rng), nd(rng));
+    d.normalize();
+    Vec3 p = d * 0.02;
+    Vec3 normal;
+    for (int it = 0; it < 50; ++it) p -= AnalyticDistance(shape, p, &normal) * normal;
+    nbrs.clear();
+    grid.Query(p, g.mls.support * g.mls.bandwidth, &nbrs);
+    MlsProjection proj;
+    if (nbrs.empty() || !MlsProject(g.cloud.positions.data(), g.cloud.normals.data(), nbrs.data(),
+                                    static_cast<int>(nbrs.size()), p, g.mls, &proj))
+      continue;
+    ++projected;
+    leaves.clear();
+    leaf_grid.Query(proj.point, max_r, &leaves);
+    bool inside = false;
+    for (int l : leaves) inside |= (proj.point - t.control_point(l)).norm() <= t.node(t.leaf_node(l)).radius;
+    uncovered += !inside;
+  }
+  EXPECT_GT(projected, samples * 9 / 10);
+  EXPECT_EQ(uncovered, 0);
+}
+
+TEST(SphereTree, EllipsoidFingertipStructureAndCoverage) {
+  const ShapeDesc shape = Ellipsoid();
+  const BodyGeometry g = MakeGeometry(shape, 2400, 320);
+  CheckStructure(g, 320);
+  CheckCoverage(g, shape, 20000);
+}
+
+TEST(SphereTree, PaperBoxStructureAndCoverage) {
+  const ShapeDesc shape = Cube(0.06);
+  const BodyGeometry g = MakeGeometry(shape, 36000, 4800);
+  CheckStructure(g, 4800);
+  CheckCoverage(g, shape, 40000);
+}
+
+TEST(SphereTree, ControlPointsLieOnTheSurface) {
+  const ShapeDesc shape = Ellipsoid();
+  const BodyGeometry g = MakeGeometry(shape, 2400, 320);
+  for (int l = 0; l < g.tree.num_leaves(); ++l) {
+    const double d = AnalyticDistance(shape, g.tree.control_point(l));
+    EXPECT_LT(std::abs(d), 0.05 * g.spacing) << "leaf " << l;
+  }
+}
+
+TEST(SphereTree, NeighbourhoodHoldsEveryPointWithinRadiusPlusBorder) {
+  const BodyGeometry g = MakeGeometry(Ellipsoid(), 2400, 320);
+  for (int l = 0; l < g.tree.num_leaves(); l += 7) {
+    int count = 0;
+    const int* idx = g.tree.neighbourhood(l, &count);
+    std::vector<int> got(idx, idx + count);
+    const TreeNode& n = g.tree.node(g.tree.leaf_node(l));
+    std::vector<int> want;
+    for (int i = 0; i < static_cast<int>(g.cloud.size()); ++i)
+      if ((g.cloud.positions[i] - n.center).norm() <= n.rest_radius + g.tree.border()) want.push_back(i);
+    EXPECT_EQ(got, want);
+  }
+}
+
+TEST(SphereTree, RefitTouchesOnlyDeformedSubtreesAndEnclosesTheGrowth) {
+  BodyGeometry g = MakeGeometry(Ellipsoid(), 2400, 320);
+  SphereTree& t = g.tree;
+  const int leaves = t.num_leaves();
+  std::vector<Vec3> u(leaves, Vec3::Zero());
+  std::vector<double> spread(leaves, 0.0);
+  std::vector<uint8_t> changed(leaves, 0);
+  // deform two leaves
+  u[5] = Vec3(0, 0, -4e-4);
+  u[200] = Vec3(1e-4, 0, 0);
+  spread[5] = 1e-4;
+  changed[5] = changed[200] = 1;
+  const int stop = 3;
+  RefitStats stats;
+  t.Refit(u.data(), spread.data(), changed.data(), stop, &stats);
+  EXPECT_EQ(stats.leaves_changed, 2);
+  // at most: the two leaves, their ancestors down to the stop level, and the nodes above it
+  EXPECT_LE(stats.nodes_visited, 2 * (t.depth() + 1) + (1 << stop));
+  std::vector<uint8_t> on_path(t.nodes().size(), 0);
+  for (int l : {5, 200})
+    for (int n = t.leaf_node(l); n >= 0; n = t.node(n).parent) on_path[n] = 1;
+  for (size_t i = 0; i < t.nodes().size(); ++i) {
+    const TreeNode& n = t.node(static_cast<int>(i));
+    if (n.depth < stop) {
+      EXPECT_GE(n.radius, n.rest_radius + 5e-4 - 1e-15);  // inflated by the largest growth
+    } else if (on_path[i]) {
+      EXPECT_GT(n.radius, n.rest_radius);
+    } else {
+      EXPECT_EQ(n.radius, n.rest_radius) << "node " << i << " was touched";
+    }
+  }
+  EXPECT_DOUBLE_EQ(t.node(t.leaf_node(5)).radius, t.node(t.leaf_node(5)).rest_radius + 5e-4);
+  // relaxing back shrinks the path again
+  u[5].setZero();
+  u[200].setZero();
+  spread[5] = 0;
+  t.Refit(u.data(), spread.data(), changed.data(), stop, &stats);
+  for (const TreeNode& n : t.nodes()) EXPECT_DOUBLE_EQ(n.radius, n.rest_radius);
+  // nothing changed: nothing visited
+  std::fill(changed.begin(), changed.end(), 0);
+  t.Refit(u.data(), spread.data(), changed.data(), stop, &stats);
+  EXPECT_EQ(stats.nodes_visited, 0);
+}
+
+TEST(SphereTree, RefusesBadInput) {
+  SphereTree t;
+  PointCloud c;
+  MlsParams mls;
+  SphereTreeParams p;
+  EXPECT_EQ(t.Build(c, mls, p), SphereTree::EBuildError::TooFewPoints);
+  for (int i = 0; i < 10; ++i) {
+    c.positions.push_back(Vec3(i, 0, 0));
+    c.normals.push_back(Vec3::UnitZ());
+  }
+  p.leaf_count = 11;
+  EXPECT_EQ(t.Build(c, mls, p), SphereTree::EBuildError::BadLeafCount);
+  p.leaf_count = 2;
+  c.positions[3].x() = std::nan("");
+  EXPECT_EQ(t.Build(c, mls, p), SphereTree::EBuildError::NotFinite);
+}
+
+}  // namespace
+}  // namespace gs
