@@ -12,6 +12,7 @@ int main(int argc, char** argv) {
   // one line per subcommand (see app/commands.h)
   gs::app::AddBenchCommand(app, &exit_code);
   gs::app::AddValidateCommand(app, &exit_code);
+  gs::app::AddRunCommand(app, &exit_code);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

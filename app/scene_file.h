@@ -1,0 +1,74 @@
+// Scene files (YAML, SI units): parsing with validation, and building the World
+// and its script from them. The format is documented in docs/scene-format.md.
+#pragma once
+
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "app/script.h"
+#include "app/yaml_strict.h"
+#include "core/world.h"
+
+namespace gs::app {
+
+struct SceneBody {
+  BodySpec spec;           ///< everything but the mesh, which is imported at build time
+  std::string mesh_file;   ///< resolved path when the shape is a mesh
+  double mesh_scale = 1.0;
+  bool has_drive = false;
+};
+
+struct SceneFinger {
+  std::string name;
+  FingerModel model;
+  Vec4 joints = Vec4::Zero();
+  double motor_stiffness = 1.0, motor_damping = 0.0, joint_damping = 0.0;
+  SceneBody tip;
+};
+
+struct SceneKeyframe {
+  double time = 0.0;
+  bool has_hand = false;
+  Vec3 hand_position = Vec3::Zero();
+  std::map<std::string, Vec4> joints;           ///< per finger
+  std::map<std::string, Vec3> tip_targets;      ///< per finger, hand frame (inverse kinematics)
+  std::map<std::string, Pose> body_targets;     ///< per body
+};
+
+struct Scene {
+  std::string file, name, description;
+  WorldParams params;
+  double duration = 1.0;
+  std::vector<SceneBody> bodies;
+  Pose hand_pose;
+  std::vector<SceneFinger> fingers;
+  struct Pair {
+    std::string a, b;
+    double mu;
+  };
+  std::vector<Pair> friction_pairs;
+  std::vector<SceneKeyframe> script;
+};
+
+/// Parses and validates a scene; false with every error found.
+bool LoadScene(const std::string& path, Scene* out, std::vector<SceneError>* errors);
+bool LoadSceneFromString(const std::string& text, const std::string& virtual_path, Scene* out,
+                         std::vector<SceneError>* errors);
+
+/// A scene made ready to step.
+struct BuiltScene {
+  std::string name;
+  double duration = 1.0;
+  World world;
+  ScriptPlayer script;
+  int tracked_body = -1;  ///< the first free body that is not a fingertip (reported in summaries)
+};
+
+/// Imports meshes, samples every surface, builds trees, fingers and the script.
+bool BuildScene(const Scene& scene, BuiltScene* out, std::string* error);
+/// LoadScene + BuildScene, errors formatted one per line.
+bool LoadAndBuildScene(const std::string& path, BuiltScene* out, std::string* error);
+
+}  // namespace gs::app
