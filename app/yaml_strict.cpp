@@ -92,7 +92,12 @@ bool MapReader::Number(const std::string& key, double* out, double lo, double hi
   if (below || above) {
     std::ostringstream s;
     s << "'" << key << "' = " << n.Scalar() << " is out of range: expected a number in " << (lo_open ? "(" : "[")
-      << lo << ", " << hi << (hi_open ? ")" : "]");
+      << lo << ", ";
+    if (hi >= 1e299) {
+      s << "infinity)";
+    } else {
+      s << hi << (hi_open ? ")" : "]");
+    }
     Error(n, s.str());
     return false;
   }
