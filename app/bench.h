@@ -2,6 +2,10 @@
 // json one JSON object per line (the last one holds the headline figures).
 #pragma once
 
+#include <cmath>
+
+#include "core/sampling.h"
+
 namespace gs::app {
 
 struct BenchOptions {
@@ -10,5 +14,16 @@ struct BenchOptions {
 };
 
 int RunBenchCollision(const BenchOptions& opt);
+int RunBenchMls(const BenchOptions& opt);
+
+/// Accuracy of MLS projections of points near a sampled shape (errors in spacings).
+struct MlsAccuracy {
+  double spacing = 0.0;
+  double max_err = NAN, median_err = NAN, max_deg = NAN, median_deg = NAN;
+  double ns_per_projection = 0.0;
+  int failed = 0;
+};
+MlsAccuracy MeasureMlsAccuracy(const ShapeDesc& shape, int points, double bandwidth_factor, bool quadric, int queries,
+                               uint64_t seed);
 
 }  // namespace gs::app
