@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include <Eigen/LU>
+
 namespace gs {
 
 Vec3 ProjectOntoCone(const Vec3& x, double mu) {
@@ -77,9 +79,12 @@ ELocalCase SolveLocalCoulomb(const Mat3& W, const Vec3& q, double mu, Vec3* r, d
     *r = Vec3(-q[0] / wnn, 0.0, 0.0);
     return ELocalCase::Stick;
   }
-  // stick: u = 0
-  const Eigen::LDLT<Mat3> ldlt(W);
-  const Vec3 rs = -ldlt.solve(q);
+  // stick: u = 0 (W is not assumed symmetric: some real problems' blocks are not)
+  Mat3 W_inv;
+  bool invertible = false;
+  double det = 0.0;
+  W.computeInverseAndDetWithCheck(W_inv, det, invertible, 1e-300);
+  const Vec3 rs = invertible ? Vec3(-(W_inv * q)) : Vec3(-q[0] / wnn, 0.0, 0.0);
   if (rs.allFinite() && rs[0] > 0.0 && std::hypot(rs[1], rs[2]) <= mu * rs[0]) {
     *r = rs;
     return ELocalCase::Stick;

@@ -1,0 +1,75 @@
+// A frictional contact problem with an explicit sparse Delassus matrix (the
+// FCLIB "local" problem): find r in the cones with u = W r + q, De Saxce's
+// complementarity per contact (local_solver.h). The simulator's own step never
+// forms W; this form is for problems read from files, problems exported from a
+// step, and generated benchmark problems. Solved by the same NSGS (nsgs.h).
+#pragma once
+
+#include <Eigen/SparseCore>
+#include <vector>
+
+#include "core/nsgs.h"
+
+namespace gs {
+
+using SparseRowMatrix = Eigen::SparseMatrix<double, Eigen::RowMajor, int>;
+
+struct FcProblem {
+  int contacts = 0;
+  SparseRowMatrix W;     ///< 3n x 3n, per contact normal first then two tangents
+  Eigen::VectorXd q;     ///< 3n
+  Eigen::VectorXd mu;    ///< n
+};
+
+/// What is wrong with a problem (dimensions, non-finite values, negative mu,
+/// a diagonal block that is not positive), or an empty string.
+const char* CheckFcProblem(const FcProblem& p);
+
+/// The NSGS operator on an explicit W: u_c = q_c + W_c. r (row block product).
+class SparseDelassus {
+ public:
+  explicit SparseDelassus(const FcProblem& p);
+  int NumContacts() const { return p_.contacts; }
+  Mat3 DiagonalBlock(int c) const { return diag_[c]; }
+  double Mu(int c) const { return p_.mu[c]; }
+  double FreeNormSquared() const { return p_.q.squaredNorm(); }
+  Vec3 Velocity(int c, const Vec3* r) const {
+    Vec3 u = p_.q.segment<3>(3 * c);
+    const double* x = r[0].data();
+    for (int k = 0; k < 3; ++k) {
+      double s = 0.0;
+      for (SparseRowMatrix::InnerIterator it(p_.W, 3 * c + k); it; ++it) s += it.value() * x[it.index()];
+      u[k] += s;
+    }
+    return u;
+  }
+  void ApplyDelta(int, const Vec3&) {}
+
+ private:
+  const FcProblem& p_;
+  std::vector<Mat3> diag_;
+};
+
+/// Solver choice for explicit problems.
+struct FcSolveParams {
+  NsgsParams nsgs;
+};
+
+struct FcSolveResult {
+  NsgsResult nsgs;
+  double seconds = 0.0;
+};
+
+/// Solves from the forces in *r (resized to 3n and zeroed when the size differs).
+FcSolveResult SolveFcProblem(const FcProblem& p, const FcSolveParams& params, Eigen::VectorXd* r);
+
+/// The Siconos error of r for the problem.
+double FcError(const FcProblem& p, const Eigen::VectorXd& r);
+
+/// A random rigid-body problem: boxes on a grid in stacks of `layers`, each
+/// resting on the one below (the bottom one on the ground) through 4 corner
+/// contacts, W = H M^-1 H^T, mu uniform in [0.1, 1], q = H v of a falling,
+/// slightly spinning state. Deterministic in `seed`.
+FcProblem RandomRigidProblem(int contacts, int layers, uint64_t seed);
+
+}  // namespace gs
