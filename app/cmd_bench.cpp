@@ -17,6 +17,7 @@ void AddBenchCommand(CLI::App& app, int* exit_code) {
     sub->callback([opt, exit_code, fn]() { *exit_code = fn(*opt); });
   };
   add("collision", "the paper's Figure 6: collision detection at three grasp depths", RunBenchCollision);
+  add("step", "the whole time step on the paper grasp at its deepest (target 1 ms median)", RunBenchStep);
   add("mls", "MLS projection accuracy and cost on a sphere and an ellipsoid at the paper's density", RunBenchMls);
 }
 

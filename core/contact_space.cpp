@@ -32,11 +32,12 @@ Vec3 SideDisplacement(const ContactSide& s, const std::vector<Vec3>& u) {
 
 void BuildContactSpace(World& w) {
   using Clock = std::chrono::steady_clock;
-  double t_rigid = 0.0, t_deform = 0.0;
+  const auto t0 = Clock::now();
   w.rows.clear();
-  const auto& items = w.contacts.items;
-  for (const Contact& c : items) {
-    const auto ta = Clock::now();
+  w.side_inf_idx.clear();
+  w.side_inf_phi.clear();
+  // rigid part: frames, free slip of the material points, Jacobian rows, W_rigid,cc
+  for (const Contact& c : w.contacts.items) {
     ContactRow row;
     row.contact = c;
     const Vec3 n = c.normal;
@@ -58,6 +59,7 @@ void BuildContactSpace(World& w) {
       slip += side.sign * (world_pt[s] - b.pose_prev.Apply(c.anchor[s]));
       side.articulation = b.articulation;
       side.count = 0;
+      side.inf_begin = side.inf_count = 0;
       if (b.articulation < 0) continue;
       const Articulation& a = w.articulations[b.articulation];
       Eigen::Matrix<double, 3, 6> J = Eigen::Matrix<double, 3, 6>::Zero();
@@ -70,13 +72,21 @@ void BuildContactSpace(World& w) {
       row.w_diag += side.h * a.a_inv * side.h.transpose();
     }
     row.world_point = 0.5 * (world_pt[0] + world_pt[1]);
-    const auto tb = Clock::now();
+    row.q = Vec3(c.gap, t1.dot(slip), t2.dot(slip));
+    row.mu = w.Friction(c.body[0], c.body[1]);
+    w.rows.push_back(row);
+  }
+  const auto t1 = Clock::now();
 
-    // deformable part: eq. 8 weights and sum_ij w_i w_j phi_ij on the diagonal
+  // deformable part (skipped for rigid bodies): eq. 8 weights, the side's merged
+  // influence sum_k w_k phi(k, m), its diagonal term sum_i w_i (sum_k w_k phi_ki)
+  // and the free displacement's share of the gap and slip. Then the warm start.
+  for (ContactRow& row : w.rows) {
+    const Contact& c = row.contact;
     double gap_def = 0.0;
     Vec3 slip_def = Vec3::Zero();
     for (int s = 0; s < 2; ++s) {
-      const Body& b = w.bodies[c.body[s]];
+      Body& b = w.bodies[c.body[s]];
       ContactSide& side = row.side[s];
       if (!b.deform.enabled()) continue;
       if (s == 0) {
@@ -88,30 +98,44 @@ void BuildContactSpace(World& w) {
         if (c.surface_leaf < 0) continue;
         side.count = b.deform.Interpolate(c.anchor[1], c.surface_leaf, side.idx, side.w, ContactSide::kMaxWeights);
       }
+      const int begin = static_cast<int>(w.side_inf_idx.size());
+      for (int k = 0; k < side.count; ++k) {
+        const int* idx;
+        const double* phi;
+        const int m = b.deform.Influence(side.idx[k], &idx, &phi);
+        for (int j = 0; j < m; ++j) {
+          int& slot = b.inf_slot[idx[j]];
+          if (slot < 0) {
+            slot = static_cast<int>(w.side_inf_idx.size());
+            w.side_inf_idx.push_back(idx[j]);
+            w.side_inf_phi.push_back(0.0);
+          }
+          w.side_inf_phi[slot] += side.w[k] * phi[j];
+        }
+      }
       double k = 0.0;
-      for (int i = 0; i < side.count; ++i)
-        for (int j = 0; j < side.count; ++j) k += side.w[i] * side.w[j] * b.deform.Kernel(side.idx[i], side.idx[j]);
+      for (int i = 0; i < side.count; ++i) k += side.w[i] * w.side_inf_phi[b.inf_slot[side.idx[i]]];
+      const int end = static_cast<int>(w.side_inf_idx.size());
+      for (int j = begin; j < end; ++j) b.inf_slot[w.side_inf_idx[j]] = -1;
+      side.inf_begin = begin;
+      side.inf_count = end - begin;
       row.w_diag += k * Mat3::Identity();  // isotropic kernel: frame R R^T frame^T = I
       const Vec3 uf = b.pose.Rotate(SideDisplacement(side, b.u_free));
       const Vec3 up = b.pose_prev.Rotate(SideDisplacement(side, b.u));
-      gap_def += side.sign * n.dot(uf);
+      gap_def += side.sign * c.normal.dot(uf);
       slip_def += side.sign * (uf - up);
     }
     // normal: position-level gap after free motion (eq. 6); tangents: free slip over the step
-    row.q = Vec3(c.gap + gap_def, t1.dot(slip + slip_def), t2.dot(slip + slip_def));
-    row.mu = w.Friction(c.body[0], c.body[1]);
+    row.q += Vec3(gap_def, row.frame.row(1).dot(slip_def), row.frame.row(2).dot(slip_def));
     row.r.setZero();
     // warm start: the previous world force of the same key, in the new frame
     const auto it = std::lower_bound(w.warm_prev.begin(), w.warm_prev.end(), c.key,
                                      [](const std::pair<uint64_t, Vec3>& e, uint64_t k) { return e.first < k; });
     if (it != w.warm_prev.end() && it->first == c.key) row.r = row.frame * it->second;
-    w.rows.push_back(row);
-    const auto tc = Clock::now();
-    t_rigid += std::chrono::duration<double>(tb - ta).count();
-    t_deform += std::chrono::duration<double>(tc - tb).count();
   }
-  w.profile.fill_w_rigid = t_rigid;
-  w.profile.fill_w_deform = t_deform;
+  const auto t2 = Clock::now();
+  w.profile.fill_w_rigid = std::chrono::duration<double>(t1 - t0).count();
+  w.profile.fill_w_deform = std::chrono::duration<double>(t2 - t1).count();
 }
 
 }  // namespace gs

@@ -9,7 +9,7 @@ namespace gs {
 
 Vec3 ProjectOntoCone(const Vec3& x, double mu) {
   const double xn = x[0];
-  const double xt = std::hypot(x[1], x[2]);
+  const double xt = std::sqrt(x[1] * x[1] + x[2] * x[2]);
   if (mu * xt <= -xn) return Vec3::Zero();
   if (xt <= mu * xn) return x;
   const double n = (mu * xt + xn) / (1.0 + mu * mu);
@@ -17,7 +17,7 @@ Vec3 ProjectOntoCone(const Vec3& x, double mu) {
 }
 
 double LocalErrorSquared(const Vec3& r, const Vec3& u, double mu) {
-  const Vec3 ut(u[0] + mu * std::hypot(u[1], u[2]), u[1], u[2]);
+  const Vec3 ut(u[0] + mu * std::sqrt(u[1] * u[1] + u[2] * u[2]), u[1], u[2]);
   return (r - ProjectOntoCone(r - ut, mu)).squaredNorm();
 }
 
@@ -85,7 +85,7 @@ ELocalCase SolveLocalCoulomb(const Mat3& W, const Vec3& q, double mu, Vec3* r, d
   double det = 0.0;
   W.computeInverseAndDetWithCheck(W_inv, det, invertible, 1e-300);
   const Vec3 rs = invertible ? Vec3(-(W_inv * q)) : Vec3(-q[0] / wnn, 0.0, 0.0);
-  if (rs.allFinite() && rs[0] > 0.0 && std::hypot(rs[1], rs[2]) <= mu * rs[0]) {
+  if (rs.allFinite() && rs[0] > 0.0 && std::sqrt(rs[1] * rs[1] + rs[2] * rs[2]) <= mu * rs[0]) {
     *r = rs;
     return ELocalCase::Stick;
   }
@@ -136,7 +136,7 @@ ELocalCase SolveLocalCoulomb(const Mat3& W, const Vec3& q, double mu, Vec3* r, d
   Vec3 x = ProjectOntoCone(rs.allFinite() ? rs : Vec3(-q[0] / wnn, 0, 0), mu);
   for (int it = 0; it < 2000; ++it) {
     const Vec3 u = W * x + q;
-    const Vec3 ut(u[0] + mu * std::hypot(u[1], u[2]), u[1], u[2]);
+    const Vec3 ut(u[0] + mu * std::sqrt(u[1] * u[1] + u[2] * u[2]), u[1], u[2]);
     const Vec3 nx = ProjectOntoCone(x - rho * ut, mu);
     const double step = (nx - x).squaredNorm();
     x = nx;

@@ -47,17 +47,14 @@ class WorldDelassus {
         Articulation& a = w_.articulations[s.articulation];
         a.dq += a.a_inv * (s.h.transpose() * dr);
       }
-      if (s.count > 0) {
+      if (s.inf_count > 0) {
         Body& b = w_.bodies[s.body];
-        // the force on this body, in its rest frame, spread over its control points
+        // the force on this body, in its rest frame, over the control points it moves
         const Vec3 f = b.pose.RotateInverse(s.sign * (row.frame.transpose() * dr));
-        for (int k = 0; k < s.count; ++k) {
-          const int* idx;
-          const double* phi;
-          const int n = b.deform.Influence(s.idx[k], &idx, &phi);
-          const Vec3 fk = s.w[k] * f;
-          for (int m = 0; m < n; ++m) b.u_acc[idx[m]] += phi[m] * fk;
-        }
+        const int* idx = w_.side_inf_idx.data() + s.inf_begin;
+        const double* phi = w_.side_inf_phi.data() + s.inf_begin;
+        Vec3* u = b.u_acc.data();
+        for (int m = 0; m < s.inf_count; ++m) u[idx[m]] += phi[m] * f;
       }
     }
   }

@@ -119,6 +119,7 @@ void World::Finalize() {
     b.u_acc.assign(leaves, Vec3::Zero());
     b.u_spread.assign(leaves, 0.0);
     b.u_changed.assign(leaves, 0);
+    b.inf_slot.assign(leaves, -1);
     b.pose_prev = b.pose;
   }
   for (size_t f = 0; f < hand.fingers.size(); ++f) {
@@ -147,6 +148,10 @@ void World::Finalize() {
   warm_prev.reserve(params.max_contacts);
   warm_next.reserve(params.max_contacts);
   solve_r.reserve(params.max_contacts);
+  // merged influences: a few dozen control points per deformable contact side;
+  // grown (once) by a scene with wider influences, never in the steady state
+  side_inf_idx.reserve(static_cast<size_t>(64) * params.max_contacts);
+  side_inf_phi.reserve(static_cast<size_t>(64) * params.max_contacts);
   gs_scratch.Reserve(params.max_contacts);
 }
 

@@ -65,6 +65,7 @@ struct Body {
   std::vector<Vec3> u_acc;    ///< displacement from this step's contact forces
   std::vector<double> u_spread;
   std::vector<uint8_t> u_changed;
+  std::vector<int> inf_slot;  ///< contact-space scratch: slot of a control point in a merged influence, -1
   bool emits_contacts = true; ///< false: one-pass contact, only other bodies' control points touch this one
   int finger = -1;            ///< for a fingertip, its finger
   int articulation = -1;      ///< index into World::articulations, -1 when it has no dofs
@@ -108,6 +109,10 @@ struct ContactSide {
   double w[kMaxWeights];
   Eigen::Matrix<double, 3, 6> h = Eigen::Matrix<double, 3, 6>::Zero();  ///< sign * frame^T * J
   double sign = 1.0;
+  /// the side's merged influence on its body's control points: a force F at the
+  /// contact point moves control point m by phi_m F (eq. 8 weights folded into eq. 13),
+  /// entries [inf_begin, inf_begin + inf_count) of World::side_inf_idx / side_inf_phi
+  int inf_begin = 0, inf_count = 0;
 };
 
 /// One row block of the contact space (normal first, then the two tangents).
@@ -173,6 +178,8 @@ class World {
   NsgsScratch gs_scratch;
   std::vector<std::pair<uint64_t, Vec3>> warm_prev, warm_next;  ///< previous step's world forces by key
   std::vector<Vec3> solve_r;
+  std::vector<int> side_inf_idx;      ///< merged influences of the contact sides (see ContactSide)
+  std::vector<double> side_inf_phi;
 };
 
 /// Everything needed to add a body to a world.
