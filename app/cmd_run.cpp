@@ -2,10 +2,12 @@
 // the paper's timing tables and writes timings, contacts and a summary.
 #include <chrono>
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 #include <sstream>
 
 #include "app/commands.h"
+#include "app/fclib_io.h"
 #include "app/paths.h"
 #include "app/run_report.h"
 #include "app/scene_file.h"
@@ -18,7 +20,25 @@ struct RunOptions {
   std::string out;
   double duration = -1.0;
   bool quiet = false;
+  std::string export_fclib;  ///< folder for every step's contact problem (FCLIB)
+  int export_every = 1;
 };
+
+// writes the last step's contact problem as DIR/step_NNNNNN.hdf5 (with its solution)
+bool ExportStep(const std::string& dir, const std::string& scene, World& w, int* exported, std::string* error) {
+  if (w.rows.empty()) return true;
+  FcProblem p;
+  Eigen::VectorXd r;
+  AssembleContactProblem(w, &p, &r);
+  char name[64];
+  std::snprintf(name, sizeof name, "step_%06lld.hdf5", static_cast<long long>(w.step_count));
+  char desc[160];
+  std::snprintf(desc, sizeof desc, "step %lld at t = %.4f s, %d contacts; solution: the step's forces (error %.3g)",
+                static_cast<long long>(w.step_count), w.time, p.contacts, w.profile.residual);
+  if (!WriteFclibLocal(dir + "/" + name, p, "graspsim " + scene, desc, &r, error)) return false;
+  ++*exported;
+  return true;
+}
 
 int Run(const RunOptions& opt) {
   using Clock = std::chrono::steady_clock;
@@ -41,6 +61,19 @@ int Run(const RunOptions& opt) {
   std::printf("simulating %.3f s in %lld steps of %.3g ms\n", duration, static_cast<long long>(steps),
               1e3 * w.params.dt);
 
+  if (!opt.export_fclib.empty()) {
+    if (!FclibAvailable()) {
+      std::fprintf(stderr, "graspsim run: --export-fclib needs FCLIB (install libfclib-dev and rebuild)\n");
+      return kExitUsage;
+    }
+    std::error_code ec;
+    std::filesystem::create_directories(opt.export_fclib, ec);
+    if (ec) {
+      std::fprintf(stderr, "graspsim run: cannot create %s: %s\n", opt.export_fclib.c_str(), ec.message().c_str());
+      return kExitFailure;
+    }
+  }
+  int exported = 0;
   std::vector<StepRecord> records;
   records.reserve(static_cast<size_t>(steps));
   const int tracked = built->tracked_body;
@@ -51,6 +84,11 @@ int Run(const RunOptions& opt) {
     built->script.Apply(w, w.time + w.params.dt);
     w.Step();
     records.push_back(RecordStep(w));
+    if (!opt.export_fclib.empty() && w.step_count % opt.export_every == 0 &&
+        !ExportStep(opt.export_fclib, built->name, w, &exported, &error)) {
+      std::fprintf(stderr, "graspsim run: %s\n", error.c_str());
+      return kExitFailure;
+    }
     residual_max = std::max(residual_max, w.profile.residual);
     if (tracked >= 0) max_rise = std::max(max_rise, w.bodies[tracked].pose.t.z() - start.z());
     if (!opt.quiet && (i + 1) % 500 == 0)
@@ -59,6 +97,8 @@ int Run(const RunOptions& opt) {
   }
   const double wall = std::chrono::duration<double>(Clock::now() - t1).count();
   PrintPaperTables(records);
+  if (!opt.export_fclib.empty())
+    std::printf("exported %d contact problems (FCLIB) to %s\n", exported, opt.export_fclib.c_str());
   std::printf("\n%lld steps in %.2f s wall (%.2fx real time); %lld steps hit the iteration cap, %lld rejected\n",
               static_cast<long long>(steps), wall, duration / wall, static_cast<long long>(w.unconverged_steps),
               static_cast<long long>(w.rejected_steps));
@@ -94,6 +134,10 @@ void AddRunCommand(CLI::App& app, int* exit_code) {
   run->add_option("scene", opt->scene, "scene file (YAML)")->capture_default_str();
   run->add_option("--out", opt->out, "output folder for timings.csv, contacts.csv and summary.json");
   run->add_option("--duration", opt->duration, "simulated seconds (default: the scene's duration_s)")
+      ->check(CLI::PositiveNumber);
+  run->add_option("--export-fclib", opt->export_fclib,
+                  "write every step's contact problem (and its solution) as FCLIB files step_NNNNNN.hdf5 into DIR");
+  run->add_option("--export-every", opt->export_every, "with --export-fclib: every Nth step only")
       ->check(CLI::PositiveNumber);
   run->add_flag("--quiet", opt->quiet, "no progress lines");
   run->callback([opt, exit_code]() { *exit_code = Run(*opt); });

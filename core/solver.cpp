@@ -5,6 +5,7 @@
 // accumulators (dq += A^-1 H^T dr) and, for deformable bodies, the control
 // points under the force (u_acc += phi F, eq. 13); a contact reads its gap back
 // from them. A sweep costs O(contacts x (dof + influence)), never O(contacts^2).
+#include <algorithm>
 #include <chrono>
 
 #include "core/world.h"
@@ -84,6 +85,65 @@ void SolveContacts(World& w) {
   }
   for (int c = 0; c < n; ++c) w.rows[c].r = w.solve_r[c];
   w.profile.solve = std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+namespace {
+
+void ClearAccumulators(World& w) {
+  for (Articulation& a : w.articulations) a.dq.setZero();
+  for (Body& b : w.bodies)
+    for (Vec3& u : b.u_acc) u.setZero();
+}
+
+}  // namespace
+
+void AssembleContactProblem(World& w, FcProblem* p, Eigen::VectorXd* r) {
+  const int n = static_cast<int>(w.rows.size());
+  p->contacts = n;
+  p->q.resize(3 * n);
+  p->mu.resize(n);
+  if (r) r->resize(3 * n);
+  for (int c = 0; c < n; ++c) {
+    p->q.segment<3>(3 * c) = w.rows[c].q;
+    p->mu[c] = w.rows[c].mu;
+    if (r) r->segment<3>(3 * c) = w.rows[c].r;
+  }
+  // contacts grouped by the bodies through which they couple
+  std::vector<std::vector<int>> by_body(w.bodies.size());
+  for (int c = 0; c < n; ++c)
+    for (const ContactSide& s : w.rows[c].side)
+      if (s.articulation >= 0 || s.inf_count > 0) by_body[s.body].push_back(c);
+  WorldDelassus op(w);
+  ClearAccumulators(w);
+  std::vector<Eigen::Triplet<double>> trip;
+  std::vector<int> mark(n, -1), touched;
+  for (int c = 0; c < n; ++c) {
+    touched.clear();
+    for (const ContactSide& s : w.rows[c].side) {
+      if (s.articulation < 0 && s.inf_count == 0) continue;
+      for (int d : by_body[s.body])
+        if (mark[d] != c) {
+          mark[d] = c;
+          touched.push_back(d);
+        }
+    }
+    std::sort(touched.begin(), touched.end());
+    for (int k = 0; k < 3; ++k) {
+      const Vec3 e = Vec3::Unit(k);
+      op.ApplyDelta(c, e);
+      for (int d : touched) {
+        const Vec3 col = op.Velocity(d, nullptr) - w.rows[d].q;
+        for (int i = 0; i < 3; ++i)
+          if (col[i] != 0.0) trip.emplace_back(3 * d + i, 3 * c + k, col[i]);
+      }
+      ClearAccumulators(w);
+    }
+  }
+  p->W.resize(3 * n, 3 * n);
+  p->W.setFromTriplets(trip.begin(), trip.end());
+  p->W.makeCompressed();
+  // back to the accumulators of the step's forces
+  for (int c = 0; c < n; ++c) op.ApplyDelta(c, w.rows[c].r);
 }
 
 }  // namespace gs

@@ -23,6 +23,7 @@
 #include "core/body_geometry.h"
 #include "core/collision.h"
 #include "core/deformation.h"
+#include "core/fc_problem.h"
 #include "core/finger.h"
 #include "core/nsgs.h"
 #include "core/sampling.h"
@@ -216,5 +217,11 @@ void DetectCollisions(World& w);
 void BuildContactSpace(World& w);
 void SolveContacts(World& w);
 void ConstrainedMotion(World& w);
+
+/// The last step's contact problem with W assembled explicitly, column by column
+/// through the same matrix-free operator the solver uses (for export and checks:
+/// it allocates and costs O(contacts x contacts sharing a body); never called by
+/// Step). `r`, when not null, receives the step's forces in the same order.
+void AssembleContactProblem(World& w, FcProblem* p, Eigen::VectorXd* r = nullptr);
 
 }  // namespace gs
