@@ -619,14 +619,18 @@ bool ParseLineType(std::string_view id, ELine* out) {
 
 }  // namespace
 
+void DTrackParser::CountOversized(size_t size) {
+  ++stats_.errors[static_cast<int>(EParseError::Oversized)];
+  last_category_ = EParseError::Oversized;
+  std::snprintf(last_error_, sizeof(last_error_), "datagram of %zu bytes exceeds the %zu-byte limit", size,
+                options_.max_datagram_bytes);
+}
+
 int DTrackParser::Parse(const char* data, size_t size, DTrackFrame* out) {
   ++stats_.datagrams;
   out->Clear();
   if (size > options_.max_datagram_bytes) {
-    ++stats_.errors[static_cast<int>(EParseError::Oversized)];
-    last_category_ = EParseError::Oversized;
-    std::snprintf(last_error_, sizeof(last_error_), "datagram of %zu bytes exceeds the %zu-byte limit", size,
-                  options_.max_datagram_bytes);
+    CountOversized(size);
     return 1;
   }
   const char* end = size ? static_cast<const char*>(std::memchr(data, '\0', size)) : nullptr;

@@ -224,6 +224,9 @@ class DTrackParser {
   int Parse(const char* data, size_t size, DTrackFrame* out);
   int Parse(std::string_view datagram, DTrackFrame* out) { return Parse(datagram.data(), datagram.size(), out); }
 
+  /// Counts a datagram refused before parsing (truncated by the receiver) as oversized.
+  void CountOversized(size_t size);
+
   const ParseStats& stats() const { return stats_; }
   void ResetStats() { stats_ = ParseStats(); }
   /// The last error: "line 3 (6d): object 2: ..." (empty when none yet).
