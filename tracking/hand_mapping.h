@@ -1,0 +1,36 @@
+// From a parsed DTrack frame to fingertip target poses in the world: a gl hand's
+// fingertips (composed from the hand frame by the parser) or one 6d body per
+// fingertip; the room's up axis turned to the world's Z, millimetres to metres,
+// the calibration pose (world from room) and each fingertip's offset.
+#pragma once
+
+#include <cstdint>
+
+#include "tracking/dtrack_parser.h"
+#include "tracking/tracker_config.h"
+
+namespace gs::tracking {
+
+/// Fingertip targets from one datagram: fixed size, so that it crosses the
+/// mailbox without allocating.
+struct TargetSample {
+  static constexpr int kMaxTips = 5;
+  int64_t arrival_ns = 0;     ///< receiver's steady clock (live) or recorded arrival (replay)
+  uint64_t sequence = 0;      ///< datagram number at the receiver
+  uint32_t frame = 0;         ///< DTrack frame counter (0 when the datagram had no fr line)
+  int parse_errors = 0;       ///< lines dropped from this datagram
+  int count = 0;
+  bool valid[kMaxTips] = {};  ///< false: not tracked (quality -1 or absent)
+  Pose pose[kMaxTips];        ///< world, m
+};
+
+/// Rotation taking room coordinates to a Z-up frame.
+Mat3 UpAxisRotation(EUpAxis up);
+
+/// World pose of a tracked pose given in room units.
+Pose RoomToWorld(const TrackerConfig& c, const Vec3& room_position, const Mat3& room_rotation);
+
+/// Fills `out` (count, valid, pose) from a parsed frame.
+void MapFrame(const DTrackFrame& frame, const TrackerConfig& c, TargetSample* out);
+
+}  // namespace gs::tracking

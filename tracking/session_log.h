@@ -1,0 +1,59 @@
+// Recorded tracker sessions: LCM event logs of raw DTrack datagrams with their
+// arrival times (graspsim_dtrack_datagram_t on channel DTRACK_RAW), readable by
+// lcm-logplayer and lcm-logger; and the channels live publishes on.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "tracking/udp_receiver.h"
+
+namespace lcm {
+class LogFile;
+}
+
+namespace gs::tracking {
+
+constexpr const char* kRawChannel = "DTRACK_RAW";             ///< graspsim.dtrack_datagram_t
+constexpr const char* kPosesChannel = "GRASPSIM_POSES";       ///< graspsim.poses_t
+constexpr const char* kContactsChannel = "GRASPSIM_CONTACTS"; ///< graspsim.contacts_t
+
+struct RecordedDatagram {
+  int64_t utime = 0;            ///< arrival, system clock (µs since the epoch)
+  int64_t monotonic_utime = 0;  ///< arrival, receiver's steady clock (µs)
+  int64_t sequence = 0;
+  std::string source;
+  std::string data;
+};
+
+/// Encodes a datagram as an LCM message (for logs and publishing).
+std::vector<uint8_t> EncodeDatagram(const Datagram& d);
+
+class SessionWriter {
+ public:
+  SessionWriter();
+  ~SessionWriter();
+  bool Open(const std::string& path, std::string* error);
+  bool Write(const Datagram& d);
+  uint64_t written() const { return written_; }
+  void Close();
+
+ private:
+  std::unique_ptr<lcm::LogFile> log_;
+  uint64_t written_ = 0;
+};
+
+struct SessionReadStats {
+  uint64_t events = 0;            ///< events in the log
+  uint64_t other_channels = 0;    ///< events on other channels (ignored)
+};
+
+/// Reads every datagram of a session log, in log order. False with a message
+/// naming the file and event when the file is missing, damaged or holds a
+/// message of another type on DTRACK_RAW, or when arrival times go backwards.
+bool ReadSession(const std::string& path, std::vector<RecordedDatagram>* out, std::string* error,
+                 SessionReadStats* stats = nullptr);
+
+}  // namespace gs::tracking

@@ -1,0 +1,104 @@
+#include "tracking/synthetic_hand.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+namespace gs::tracking {
+namespace {
+
+struct Key {
+  double t, open, height;  // open: 1 open, 0 closed; height: mm above the grasp height
+};
+
+// reach down open, close, settle, lift, hold, release, rise
+void Phase(const SyntheticHand& h, double t, double* open, double* height) {
+  const Key keys[] = {{0.0, 1, h.reach_mm},        {0.2, 1, h.reach_mm},        {0.8, 1, 0.0},
+                      {1.1, 0, 0.0},               {1.3, 0, 0.0},               {1.9, 0, h.lift_mm},
+                      {2.3, 0, h.lift_mm},         {2.5, 1, h.lift_mm},         {h.duration_s, 1, h.reach_mm}};
+  const int n = sizeof(keys) / sizeof(keys[0]);
+  if (t <= keys[0].t) {
+    *open = keys[0].open;
+    *height = keys[0].height;
+    return;
+  }
+  for (int i = 1; i < n; ++i) {
+    if (t <= keys[i].t) {
+      double s = (t - keys[i - 1].t) / (keys[i].t - keys[i - 1].t);
+      s = s * s * (3 - 2 * s);  // smoothstep: no velocity jumps at the keys
+      *open = keys[i - 1].open + s * (keys[i].open - keys[i - 1].open);
+      *height = keys[i - 1].height + s * (keys[i].height - keys[i - 1].height);
+      return;
+    }
+  }
+  *open = keys[n - 1].open;
+  *height = keys[n - 1].height;
+}
+
+void AppendMatrix(std::string* s, const Mat3& R) {
+  char buf[160];
+  // column by column: b0 b1 b2 is the first column
+  std::snprintf(buf, sizeof(buf), "[%.6f %.6f %.6f %.6f %.6f %.6f %.6f %.6f %.6f]", R(0, 0), R(1, 0), R(2, 0), R(0, 1),
+                R(1, 1), R(2, 1), R(0, 2), R(1, 2), R(2, 2));
+  *s += buf;
+}
+
+}  // namespace
+
+void SyntheticHand::Tips(double t, Vec3* tips) const {
+  double open = 0, height = 0;
+  Phase(*this, t, &open, &height);
+  const double x = box_half_mm + tip_radius_mm - squeeze_mm + open * open_mm;
+  const double z = box_center_mm.z() + height;
+  const Vec3& c = box_center_mm;
+  tips[0] = Vec3(c.x() - x, c.y(), z);          // thumb
+  tips[1] = Vec3(c.x() + x, c.y() + 15.0, z);   // index
+  tips[2] = Vec3(c.x() + x, c.y() - 15.0, z);   // middle
+  tips[3] = Vec3(c.x() + x + 10.0, c.y() - 40.0, z + 25.0);  // ring, curled above
+  tips[4] = Vec3(c.x() + x + 5.0, c.y() - 60.0, z + 35.0);   // little
+}
+
+Pose SyntheticHand::HandPose(double t) const {
+  Vec3 tips[5];
+  Tips(t, tips);
+  Pose p;
+  p.R = (Eigen::AngleAxisd(25.0 * M_PI / 180, Vec3::UnitZ()) * Eigen::AngleAxisd(-15.0 * M_PI / 180, Vec3::UnitX()))
+            .toRotationMatrix();
+  p.t = (tips[0] + tips[1] + tips[2]) / 3.0 + Vec3(20.0, 0.0, 60.0);
+  return p;
+}
+
+std::string SyntheticHand::Datagram(double t, uint32_t frame) const {
+  Vec3 tips[5];
+  Tips(t, tips);
+  const Pose hand = HandPose(t);
+  const int nf = fingers == 5 ? 5 : 3;
+  std::string s;
+  s.reserve(1600);
+  char buf[256];
+  std::snprintf(buf, sizeof(buf), "fr %u\r\nts %.6f\r\n6dcal 0\r\n6d 0\r\nglcal 1\r\n", frame,
+                std::fmod(43200.0 + t, 86400.0));
+  s += buf;
+  std::snprintf(buf, sizeof(buf), "gl 1 [0 1.000 1 %d][%.3f %.3f %.3f]", nf, hand.t.x(), hand.t.y(), hand.t.z());
+  s += buf;
+  AppendMatrix(&s, hand.R);
+  static const double kParams[5][6] = {{9.5, 31.65, 24.19, 33.87, 12.044, 45.0},
+                                       {8.0, 22.31, 38.522, 26.47, 41.903, 43.15},
+                                       {8.0, 24.06, 33.14, 29.88, 37.416, 47.32},
+                                       {7.5, 23.31, 14.01, 27.15, 17.5, 44.23},
+                                       {7.0, 20.48, 19.742, 21.36, 22.085, 38.2}};
+  for (int f = 0; f < nf; ++f) {
+    // tips in the hand frame; the outer phalanx turned so that it is level in the room
+    const Vec3 local = hand.R.transpose() * (tips[f] - hand.t);
+    std::snprintf(buf, sizeof(buf), " [%.3f %.3f %.3f]", local.x(), local.y(), local.z());
+    s += buf;
+    AppendMatrix(&s, hand.R.transpose());
+    const double* p = kParams[f];
+    std::snprintf(buf, sizeof(buf), "[%.3f %.3f %.3f %.3f %.3f %.3f]", p[0], p[1], p[2], p[3], p[4], p[5]);
+    s += buf;
+  }
+  s += "\r\n";
+  return s;
+}
+
+}  // namespace gs::tracking

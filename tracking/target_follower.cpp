@@ -1,0 +1,92 @@
+#include "tracking/target_follower.h"
+
+#include <algorithm>
+
+namespace gs::tracking {
+
+const char* TipStateName(ETipState s) {
+  switch (s) {
+    case ETipState::Waiting: return "waiting";
+    case ETipState::Tracking: return "tracking";
+    case ETipState::Lost: return "lost";
+    case ETipState::Released: return "released";
+  }
+  return "?";
+}
+
+void TargetFollower::Init(const TrackerConfig& config, const World& w) {
+  config_ = config;
+  dt_ = w.params.dt;
+  tips_.assign(config.fingertips.size(), Tip());
+  for (size_t i = 0; i < tips_.size(); ++i) {
+    Tip& tip = tips_[i];
+    tip.body = config.fingertips[i].body_index;
+    if (tip.body >= 0 && tip.body < static_cast<int>(w.bodies.size())) tip.from = tip.to = tip.current = w.bodies[tip.body].pose;
+  }
+  last_push_ = -1.0;
+  samples_ = 0;
+}
+
+Pose TargetFollower::Interpolated(const Tip& tip, double t, Vec3* velocity) const {
+  if (!(tip.duration > 0.0) || t >= tip.t0 + tip.duration) {
+    velocity->setZero();
+    return tip.to;
+  }
+  const double s = std::clamp((t - tip.t0) / tip.duration, 0.0, 1.0);
+  Pose p;
+  p.t = tip.from.t + s * (tip.to.t - tip.from.t);
+  p.R = Quat(tip.from.R).slerp(s, Quat(tip.to.R)).normalized().toRotationMatrix();
+  *velocity = (tip.to.t - tip.from.t) / tip.duration;
+  return p;
+}
+
+void TargetFollower::Push(const TargetSample& s, double t) {
+  ++samples_;
+  // the blend lasts the measured interval between samples, within [dt, max]
+  double duration = 0.0;
+  if (config_.interpolate && last_push_ >= 0.0)
+    duration = std::clamp(t - last_push_, dt_, std::max(dt_, config_.max_interpolation_s));
+  last_push_ = t;
+  for (size_t i = 0; i < tips_.size(); ++i) {
+    Tip& tip = tips_[i];
+    const bool valid = static_cast<int>(i) < s.count && s.valid[i];
+    if (!valid) {
+      // hold the target reached so far
+      if (tip.state == ETipState::Tracking) {
+        Vec3 v;
+        tip.to = tip.from = Interpolated(tip, t, &v);
+        tip.duration = 0.0;
+        tip.state = ETipState::Lost;
+      }
+      continue;
+    }
+    Vec3 v;
+    // from where the target is now (a released fingertip: from where the body is)
+    tip.from = tip.state == ETipState::Released ? tip.current : Interpolated(tip, t, &v);
+    tip.to = s.pose[i];
+    tip.t0 = t;
+    tip.duration = tip.state == ETipState::Waiting ? 0.0 : duration;
+    tip.last_valid = t;
+    tip.state = ETipState::Tracking;
+  }
+}
+
+void TargetFollower::Apply(World& w, double t) {
+  for (Tip& tip : tips_) {
+    if (tip.body < 0) continue;
+    Body& b = w.bodies[tip.body];
+    if ((tip.state == ETipState::Tracking || tip.state == ETipState::Lost) &&
+        t - tip.last_valid > config_.lost_timeout_s)
+      tip.state = ETipState::Released;
+    if (tip.state == ETipState::Released) {
+      ReleaseCoupling(b, w.params.gravity, config_.coupling);
+      tip.current = b.pose;
+      tip.velocity.setZero();
+      continue;
+    }
+    tip.current = Interpolated(tip, t, &tip.velocity);
+    SetCouplingTarget(b, w.params.gravity, config_.coupling, tip.current, tip.velocity);
+  }
+}
+
+}  // namespace gs::tracking

@@ -1,0 +1,188 @@
+#include "tracking/udp_receiver.h"
+
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+#include <vector>
+
+namespace gs::tracking {
+
+int64_t SteadyNanoseconds() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch())
+      .count();
+}
+
+namespace {
+
+int64_t SystemMicroseconds() {
+  return std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+bool ParseIpv4(const std::string& s, in_addr* out) { return inet_pton(AF_INET, s.c_str(), out) == 1; }
+
+}  // namespace
+
+UdpReceiver::~UdpReceiver() { Stop(); }
+
+bool UdpReceiver::Open(const UdpOptions& o, std::string* error) {
+  Stop();
+  auto fail = [&](const std::string& what) {
+    *error = what + (errno ? std::string(": ") + std::strerror(errno) : std::string());
+    if (fd_ >= 0) close(fd_);
+    fd_ = -1;
+    return false;
+  };
+  errno = 0;
+  if (o.port < 0 || o.port > 65535) return fail("UDP port " + std::to_string(o.port) + " out of [0, 65535]");
+  allowed_.clear();
+  for (const std::string& s : o.allowed_senders) {
+    in_addr a;
+    if (!ParseIpv4(s, &a)) return fail("allowed sender '" + s + "' is not an IPv4 address");
+    allowed_.push_back(a.s_addr);
+  }
+  in_addr bind_addr, group{};
+  if (!ParseIpv4(o.bind_address, &bind_addr)) return fail("bind address '" + o.bind_address + "' is not an IPv4 address");
+  if (!o.multicast_group.empty() && (!ParseIpv4(o.multicast_group, &group) || (ntohl(group.s_addr) >> 28) != 0xE))
+    return fail("multicast group '" + o.multicast_group + "' is not an IPv4 multicast address (224.0.0.0/4)");
+  fd_ = socket(AF_INET, SOCK_DGRAM, 0);
+  if (fd_ < 0) return fail("cannot create a UDP socket");
+  const int one = 1;
+  setsockopt(fd_, SOL_SOCKET, SO_REUSEADDR, &one, sizeof(one));
+  const int rcvbuf = o.socket_buffer_bytes;
+  setsockopt(fd_, SOL_SOCKET, SO_RCVBUF, &rcvbuf, sizeof(rcvbuf));
+  sockaddr_in sa{};
+  sa.sin_family = AF_INET;
+  sa.sin_port = htons(static_cast<uint16_t>(o.port));
+  sa.sin_addr = o.multicast_group.empty() ? bind_addr : in_addr{htonl(INADDR_ANY)};
+  if (bind(fd_, reinterpret_cast<sockaddr*>(&sa), sizeof(sa)) != 0)
+    return fail("cannot bind UDP port " + std::to_string(o.port));
+  socklen_t len = sizeof(sa);
+  getsockname(fd_, reinterpret_cast<sockaddr*>(&sa), &len);
+  port_ = ntohs(sa.sin_port);
+  if (!o.multicast_group.empty()) {
+    ip_mreq m{};
+    m.imr_multiaddr = group;
+    m.imr_interface = bind_addr;
+    if (setsockopt(fd_, IPPROTO_IP, IP_ADD_MEMBERSHIP, &m, sizeof(m)) != 0)
+      return fail("cannot join multicast group " + o.multicast_group);
+  }
+  if (!o.controller.empty()) {
+    // the SDK's firewall nudge: one small datagram to the Controller's sending port
+    in_addr c;
+    if (!ParseIpv4(o.controller, &c)) return fail("controller '" + o.controller + "' is not an IPv4 address");
+    sockaddr_in ca{};
+    ca.sin_family = AF_INET;
+    ca.sin_port = htons(50107);
+    ca.sin_addr = c;
+    static const char kNudge[] = "fw4dtsdkc";  // sent with its NUL
+    if (sendto(fd_, kNudge, sizeof(kNudge), 0, reinterpret_cast<sockaddr*>(&ca), sizeof(ca)) < 0)
+      return fail("cannot send the firewall nudge to " + o.controller + ":50107");
+  }
+  return true;
+}
+
+void UdpReceiver::Start(Callback callback) {
+  if (fd_ < 0 || thread_.joinable()) return;
+  callback_ = std::move(callback);
+  stop_ = false;
+  thread_ = std::thread([this] { Loop(); });
+}
+
+void UdpReceiver::Stop() {
+  stop_ = true;
+  if (thread_.joinable()) thread_.join();
+  if (fd_ >= 0) close(fd_);
+  fd_ = -1;
+}
+
+void UdpReceiver::Loop() {
+  std::vector<char> buffer(kBufferBytes + 1);
+  uint64_t sequence = 0;
+  while (!stop_.load(std::memory_order_relaxed)) {
+    pollfd p{fd_, POLLIN, 0};
+    const int r = poll(&p, 1, 50);
+    if (r <= 0) {
+      if (r < 0 && errno != EINTR) stats_.socket_errors++;
+      continue;
+    }
+    // drain everything queued, each datagram stamped as it is read
+    for (;;) {
+      sockaddr_in from{};
+      socklen_t flen = sizeof(from);
+      const ssize_t n = recvfrom(fd_, buffer.data(), kBufferBytes, MSG_DONTWAIT | MSG_TRUNC,
+                                 reinterpret_cast<sockaddr*>(&from), &flen);
+      if (n < 0) {
+        if (errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR) stats_.socket_errors++;
+        break;
+      }
+      Datagram d;
+      d.monotonic_ns = SteadyNanoseconds();
+      d.utime = SystemMicroseconds();
+      if (!allowed_.empty()) {
+        bool ok = false;
+        for (uint32_t a : allowed_) ok = ok || a == from.sin_addr.s_addr;
+        if (!ok) {
+          stats_.rejected_sender++;
+          continue;
+        }
+      }
+      d.data = buffer.data();
+      d.truncated = static_cast<size_t>(n) > kBufferBytes;
+      d.size = d.truncated ? kBufferBytes : static_cast<size_t>(n);
+      if (d.truncated) stats_.truncated++;
+      d.sequence = sequence++;
+      char ip[INET_ADDRSTRLEN] = {};
+      inet_ntop(AF_INET, &from.sin_addr, ip, sizeof(ip));
+      std::snprintf(d.source, sizeof(d.source), "%s:%u", ip, static_cast<unsigned>(ntohs(from.sin_port)));
+      stats_.received++;
+      callback_(d);
+    }
+  }
+}
+
+UdpSender::~UdpSender() {
+  if (fd_ >= 0) close(fd_);
+}
+
+bool UdpSender::Open(const std::string& host, int port, std::string* error) {
+  in_addr a;
+  if (inet_pton(AF_INET, host.c_str(), &a) != 1) {
+    *error = "host '" + host + "' is not an IPv4 address";
+    return false;
+  }
+  if (port <= 0 || port > 65535) {
+    *error = "UDP port " + std::to_string(port) + " out of [1, 65535]";
+    return false;
+  }
+  fd_ = socket(AF_INET, SOCK_DGRAM, 0);
+  if (fd_ < 0) {
+    *error = std::string("cannot create a UDP socket: ") + std::strerror(errno);
+    return false;
+  }
+  sockaddr_in sa{};
+  sa.sin_family = AF_INET;
+  sa.sin_port = htons(static_cast<uint16_t>(port));
+  sa.sin_addr = a;
+  static_assert(sizeof(sa) <= sizeof(addr_), "sockaddr_in fits");
+  std::memcpy(addr_, &sa, sizeof(sa));
+  return true;
+}
+
+bool UdpSender::Send(const char* data, size_t size) {
+  const ssize_t n = sendto(fd_, data, size, 0, reinterpret_cast<const sockaddr*>(addr_), sizeof(sockaddr_in));
+  if (n != static_cast<ssize_t>(size)) {
+    ++errors_;
+    return false;
+  }
+  return true;
+}
+
+}  // namespace gs::tracking

@@ -1,0 +1,90 @@
+// The UDP receiving end of a DTrack output channel: a socket bound to a port
+// (optionally joined to a multicast group, optionally accepting only listed
+// senders), 64 KiB datagram buffers, and a thread that stamps each datagram's
+// arrival and hands it to a callback. The callback runs on the receiver thread.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <thread>
+#include <vector>
+
+namespace gs::tracking {
+
+struct UdpOptions {
+  int port = 5000;                           ///< 0: an ephemeral port (see UdpReceiver::port())
+  std::string bind_address = "0.0.0.0";
+  std::string multicast_group;               ///< e.g. "224.0.1.0"; empty: unicast only
+  std::vector<std::string> allowed_senders;  ///< IPv4 addresses; empty: any
+  std::string controller;                    ///< firewall nudge: "fw4dtsdkc\0" to controller:50107 at start
+  int socket_buffer_bytes = 4 << 20;         ///< SO_RCVBUF asked for (the kernel may give less)
+};
+
+struct Datagram {
+  const char* data = nullptr;
+  size_t size = 0;
+  bool truncated = false;       ///< longer than the 64 KiB buffer: only its start is in data
+  int64_t utime = 0;            ///< arrival, system clock, microseconds since the epoch
+  int64_t monotonic_ns = 0;     ///< arrival, steady clock, nanoseconds
+  uint64_t sequence = 0;        ///< 0, 1, 2, ... accepted datagrams
+  char source[32] = {};         ///< "a.b.c.d:port"
+};
+
+struct UdpStats {
+  std::atomic<uint64_t> received{0};
+  std::atomic<uint64_t> rejected_sender{0};
+  std::atomic<uint64_t> truncated{0};
+  std::atomic<uint64_t> socket_errors{0};
+};
+
+/// Steady-clock nanoseconds (the clock Datagram::monotonic_ns uses).
+int64_t SteadyNanoseconds();
+
+class UdpReceiver {
+ public:
+  static constexpr size_t kBufferBytes = 65536;
+  using Callback = std::function<void(const Datagram&)>;
+
+  UdpReceiver() = default;
+  UdpReceiver(const UdpReceiver&) = delete;
+  UdpReceiver& operator=(const UdpReceiver&) = delete;
+  ~UdpReceiver();
+
+  /// Creates and binds the socket. False with a message naming what failed.
+  bool Open(const UdpOptions& options, std::string* error);
+  /// Starts the receiver thread.
+  void Start(Callback callback);
+  /// Stops and joins the thread (within about 50 ms); closes the socket.
+  void Stop();
+
+  int port() const { return port_; }
+  const UdpStats& stats() const { return stats_; }
+
+ private:
+  void Loop();
+  int fd_ = -1;
+  int port_ = 0;
+  std::vector<uint32_t> allowed_;  // network byte order
+  Callback callback_;
+  std::thread thread_;
+  std::atomic<bool> stop_{false};
+  UdpStats stats_;
+};
+
+/// Sends datagrams to host:port (IPv4).
+class UdpSender {
+ public:
+  ~UdpSender();
+  bool Open(const std::string& host, int port, std::string* error);
+  bool Send(const char* data, size_t size);
+  uint64_t errors() const { return errors_; }
+
+ private:
+  int fd_ = -1;
+  char addr_[16] = {};  // sockaddr_in
+  uint64_t errors_ = 0;
+};
+
+}  // namespace gs::tracking
