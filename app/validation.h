@@ -28,6 +28,10 @@ std::vector<ValidationResult> ValidatePinch(const ValidationOptions& opt);
 /// A Boussinesq sphere pressed on a rigid plane: F ~ d^1.5 and a = sqrt(R d).
 std::vector<ValidationResult> ValidateHertz(const ValidationOptions& opt);
 
+/// The paper's grasp (config/paper_box_grasp.yaml): the box must stay within 5 mm
+/// of the lift height through the hold phase; every step's residual is reported.
+std::vector<ValidationResult> ValidatePaperGrasp(const ValidationOptions& opt);
+
 /// Names accepted by `graspsim validate`.
 std::vector<std::string> ValidationNames();
 /// Runs one by name ("all" for every one); false when the name is unknown.

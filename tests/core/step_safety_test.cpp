@@ -1,0 +1,114 @@
+// The step's guarantees: no allocation once warmed up, and a step that would
+// produce NaN or Inf is rejected with the previous state kept.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <cstdlib>
+#include <new>
+
+#include "core/world.h"
+
+namespace {
+std::atomic<long> g_allocations{0};
+std::atomic<bool> g_counting{false};
+}  // namespace
+
+// counts every allocation of this test binary while g_counting is set
+void* operator new(std::size_t n) {
+  if (g_counting.load(std::memory_order_relaxed)) g_allocations.fetch_add(1, std::memory_order_relaxed);
+  if (void* p = std::malloc(n ? n : 1)) return p;
+  throw std::bad_alloc();
+}
+void* operator new[](std::size_t n) { return operator new(n); }
+void* operator new(std::size_t n, const std::nothrow_t&) noexcept {
+  if (g_counting.load(std::memory_order_relaxed)) g_allocations.fetch_add(1, std::memory_order_relaxed);
+  return std::malloc(n ? n : 1);
+}
+void* operator new[](std::size_t n, const std::nothrow_t& t) noexcept { return operator new(n, t); }
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete[](void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
+
+namespace gs {
+namespace {
+
+// a deformable ball resting on a plane, pushed sideways by a drive, and a second
+// rigid free box on the plane: free, fixed, rigid and deformable paths all run
+void BuildScene(World& w) {
+  w.params.dt = 1e-3;
+  w.params.solver.tolerance = 1e-7;
+  w.params.solver.max_iterations = 200;
+  BodySpec plane;
+  plane.name = "plane";
+  plane.is_plane = true;
+  AddBody(w, plane);
+  BodySpec s;
+  s.name = "ball";
+  s.shape.type = EShape::Sphere;
+  s.shape.radius = 0.01;
+  s.geometry.points = 1500;
+  s.geometry.control_points = 200;
+  s.mass = 0.05;
+  s.pose = Pose::Translation(Vec3(0, 0, 0.0101));
+  s.deformation.model = EDeformation::Gaussian;
+  s.deformation.stiffness = 500;
+  s.deformation.damping = 1;
+  s.deformation.influence_radius = 0.003;
+  s.drive.enabled = true;
+  s.drive.force = Vec3(0.05, 0, 0);
+  AddBody(w, s);
+  BodySpec b;
+  b.name = "box";
+  b.shape.type = EShape::Box;
+  b.shape.half_extents = Vec3::Constant(0.01);
+  b.geometry.points = 1500;
+  b.geometry.control_points = 200;
+  b.mass = 0.05;
+  b.pose = Pose::Translation(Vec3(0.05, 0, 0.0102));
+  AddBody(w, b);
+  w.Finalize();
+}
+
+TEST(StepSafety, SteadyStateStepDoesNotAllocate) {
+  World w;
+  BuildScene(w);
+  for (int i = 0; i < 300; ++i) w.Step();
+  ASSERT_GT(w.rows.size(), 10u);
+  g_allocations = 0;
+  g_counting = true;
+  for (int i = 0; i < 200; ++i) w.Step();
+  g_counting = false;
+  EXPECT_EQ(g_allocations.load(), 0);
+  EXPECT_GT(w.rows.size(), 10u);
+  EXPECT_EQ(w.rejected_steps, 0);
+}
+
+TEST(StepSafety, NonFiniteStepIsRejectedAndThePreviousStateKept) {
+  World w;
+  BuildScene(w);
+  for (int i = 0; i < 100; ++i) w.Step();
+  const Pose before = w.bodies[1].pose;
+  const std::vector<Vec3> u_before = w.bodies[1].u;
+  // a NaN force on the ball: its free motion becomes NaN
+  w.bodies[1].drive.force = Vec3(NAN, 0, 0);
+  w.Step();
+  EXPECT_TRUE(w.profile.rejected);
+  EXPECT_EQ(w.rejected_steps, 1);
+  EXPECT_EQ((w.bodies[1].pose.t - before.t).norm(), 0.0);
+  EXPECT_EQ((w.bodies[1].pose.R - before.R).norm(), 0.0);
+  for (size_t j = 0; j < u_before.size(); ++j) ASSERT_EQ((w.bodies[1].u[j] - u_before[j]).norm(), 0.0);
+  for (const Body& b : w.bodies) {
+    EXPECT_TRUE(b.pose.t.allFinite());
+    EXPECT_TRUE(b.pose.R.allFinite());
+  }
+  // the simulation goes on once the input is finite again
+  w.bodies[1].drive.force = Vec3(0.05, 0, 0);
+  for (int i = 0; i < 50; ++i) w.Step();
+  EXPECT_EQ(w.rejected_steps, 1);
+  EXPECT_TRUE(w.bodies[1].pose.t.allFinite());
+  EXPECT_GT(w.rows.size(), 3u);
+}
+
+}  // namespace
+}  // namespace gs
