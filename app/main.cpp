@@ -14,6 +14,9 @@ int main(int argc, char** argv) {
   gs::app::AddValidateCommand(app, &exit_code);
   gs::app::AddRunCommand(app, &exit_code);
   gs::app::AddSceneCommand(app, &exit_code);
+  gs::app::AddRecordCommand(app, &exit_code);
+  gs::app::AddSendCommand(app, &exit_code);
+  gs::app::AddReplayCommand(app, &exit_code);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
