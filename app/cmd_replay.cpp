@@ -2,6 +2,7 @@
 // recorded tracker session headless. Each datagram applies at its recorded
 // arrival time in simulated time (the first at t = 0), so the same log and
 // scene give bit-identical outputs on every run, at any speed.
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -107,6 +108,10 @@ int Replay(const ReplayOptions& opt) {
   using Clock = std::chrono::steady_clock;
   const auto t0 = Clock::now();
   int64_t step = 0;
+  std::vector<double> step_ms;  // wall time per step: printed, never written (outputs stay deterministic)
+  step_ms.reserve(static_cast<size_t>(steps));
+  int max_iterations = 0, max_contacts = 0;
+  double slowest_detect = 0, slowest_solve = 0;
   for (; step < steps && !StopRequested(); ++step) {
     // every datagram that arrived by now applies from this step on
     while (next < log.size() && arrival(next) <= w.time + 1e-12) {
@@ -124,6 +129,13 @@ int Replay(const ReplayOptions& opt) {
     if (opt.realtime)
       std::this_thread::sleep_until(t0 + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(w.time)));
     sim->Step();
+    step_ms.push_back(1e3 * w.profile.total);
+    if (1e3 * w.profile.total >= *std::max_element(step_ms.begin(), step_ms.end())) {
+      slowest_detect = 1e3 * (w.profile.traverse + w.profile.interpenetration + w.profile.refit);
+      slowest_solve = 1e3 * w.profile.solve;
+    }
+    max_iterations = std::max(max_iterations, w.profile.iterations);
+    max_contacts = std::max(max_contacts, w.profile.contacts);
     for (const ContactRow& r : w.rows) max_penetration = std::max(max_penetration, -r.contact.gap);
     if (tracked >= 0) {
       const double rise = w.bodies[tracked].pose.t.z() - start.z();
@@ -166,6 +178,14 @@ int Replay(const ReplayOptions& opt) {
     std::printf("replay: %s highest rise %.2f mm, held 2 cm up for %.3f s, final (%.4f, %.4f, %.4f) m%s\n",
                 w.bodies[tracked].name.c_str(), 1e3 * max_rise, lifted_time, w.bodies[tracked].pose.t.x(),
                 w.bodies[tracked].pose.t.y(), w.bodies[tracked].pose.t.z(), lifted ? ": grasped and lifted" : "");
+  if (!step_ms.empty()) {
+    std::vector<double> sorted = step_ms;
+    std::sort(sorted.begin(), sorted.end());
+    std::printf("replay: step median %.3f ms, p99 %.3f ms, max %.3f ms (collision %.3f ms, solve %.3f ms); up to %d "
+                "contacts and %d Gauss-Seidel sweeps\n",
+                sorted[sorted.size() / 2], sorted[static_cast<size_t>(0.99 * (sorted.size() - 1))], sorted.back(),
+                slowest_detect, slowest_solve, max_contacts, max_iterations);
+  }
   std::printf("replay: max coupling force %.2f N, max penetration %.3f mm, %lld rejected steps, %lld unconverged\n",
               max_coupling, 1e3 * max_penetration, static_cast<long long>(w.rejected_steps),
               static_cast<long long>(w.unconverged_steps));

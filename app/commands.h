@@ -23,5 +23,6 @@ void AddSceneCommand(CLI::App& app, int* exit_code);
 void AddRecordCommand(CLI::App& app, int* exit_code);
 void AddSendCommand(CLI::App& app, int* exit_code);
 void AddReplayCommand(CLI::App& app, int* exit_code);
+void AddLiveCommand(CLI::App& app, int* exit_code);
 
 }  // namespace gs::app
