@@ -15,6 +15,7 @@ struct BenchOptions {
 
 int RunBenchCollision(const BenchOptions& opt);
 int RunBenchMls(const BenchOptions& opt);
+int RunBenchTracking(const BenchOptions& opt);
 
 /// Accuracy of MLS projections of points near a sampled shape (errors in spacings).
 struct MlsAccuracy {

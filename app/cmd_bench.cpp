@@ -18,6 +18,8 @@ void AddBenchCommand(CLI::App& app, int* exit_code) {
   };
   add("collision", "the paper's Figure 6: collision detection at three grasp depths", RunBenchCollision);
   add("mls", "MLS projection accuracy and cost on a sphere and an ellipsoid at the paper's density", RunBenchMls);
+  add("tracking", "DTrack parse throughput, 10 kHz receiving, latency from datagram arrival to fingertip force",
+      RunBenchTracking);
 }
 
 }  // namespace gs::app

@@ -294,10 +294,11 @@ bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::str
     }
   }
   stop = true;
+  const int64_t stop_ns = SteadyNanoseconds();
   sim_thread.join();
   rx.Stop();
   if (tty) std::printf("\n");
-  stats->wall_s = 1e-9 * static_cast<double>(SteadyNanoseconds() - start_ns);
+  stats->wall_s = 1e-9 * static_cast<double>(stop_ns - start_ns);
   stats->steps = steps.load();
   stats->overruns = overruns.load();
   stats->skipped_steps = skipped.load();
