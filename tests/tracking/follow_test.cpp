@@ -57,8 +57,12 @@ TEST(Mailbox, ConcurrentValuesAreWholeAndInOrder) {
   });
   uint64_t last = 0, reads = 0, torn = 0, backwards = 0;
   Big v;
-  while (!done || box.Read(&v)) {
-    if (!box.Read(&v)) continue;
+  for (;;) {
+    const bool finished = done.load();  // read before the mailbox: nothing can follow a final empty read
+    if (!box.Read(&v)) {
+      if (finished) break;
+      continue;
+    }
     ++reads;
     for (double x : v.b) torn += x != static_cast<double>(v.a);
     backwards += v.a <= last;
