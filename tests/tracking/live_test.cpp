@@ -38,7 +38,9 @@ TEST(Live, ReceivesSendOnLoopbackAtTheRateSentAndHoldsItsRate) {
   EXPECT_EQ(JsonNumber(json, "datagrams"), 291) << r.output;
   EXPECT_NEAR(JsonNumber(json, "tracker_hz"), 100.0, 1.0) << r.output;
   EXPECT_EQ(JsonNumber(json, "parse_errors"), 0) << r.output;
-  EXPECT_GE(JsonNumber(json, "sim_rate_hz"), 950.0) << r.output;
+#ifndef GRASPSIM_SANITIZED
+  EXPECT_GE(JsonNumber(json, "sim_rate_hz"), 950.0) << r.output;  // the 1 kHz rate held
+#endif
   EXPECT_NE(json.find("\"lcm_ok\":true"), std::string::npos) << r.output;
 
   // what was published: poses and contacts at about 50 Hz each
