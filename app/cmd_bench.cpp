@@ -19,6 +19,8 @@ void AddBenchCommand(CLI::App& app, int* exit_code) {
   add("collision", "the paper's Figure 6: collision detection at three grasp depths", RunBenchCollision);
   add("step", "the whole time step on the paper grasp at its deepest (target 1 ms median)", RunBenchStep);
   add("mls", "MLS projection accuracy and cost on a sphere and an ellipsoid at the paper's density", RunBenchMls);
+  add("tracking", "DTrack parse throughput, 10 kHz receiving, latency from datagram arrival to fingertip force",
+      RunBenchTracking);
 }
 
 }  // namespace gs::app

@@ -20,5 +20,10 @@ void AddBenchCommand(CLI::App& app, int* exit_code);
 void AddValidateCommand(CLI::App& app, int* exit_code);
 void AddSceneCommand(CLI::App& app, int* exit_code);
 void AddSolveCommand(CLI::App& app, int* exit_code);
+// tracking (issue 4)
+void AddRecordCommand(CLI::App& app, int* exit_code);
+void AddSendCommand(CLI::App& app, int* exit_code);
+void AddReplayCommand(CLI::App& app, int* exit_code);
+void AddLiveCommand(CLI::App& app, int* exit_code);
 
 }  // namespace gs::app

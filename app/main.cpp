@@ -15,6 +15,10 @@ int main(int argc, char** argv) {
   gs::app::AddRunCommand(app, &exit_code);
   gs::app::AddSceneCommand(app, &exit_code);
   gs::app::AddSolveCommand(app, &exit_code);
+  gs::app::AddRecordCommand(app, &exit_code);
+  gs::app::AddSendCommand(app, &exit_code);
+  gs::app::AddReplayCommand(app, &exit_code);
+  gs::app::AddLiveCommand(app, &exit_code);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -361,6 +361,7 @@ bool Parse(const YAML::Node& root, const std::string& file, Scene* s, std::vecto
       }
     }
   }
+  if (YAML::Node n = m.Raw("tracker")) ReadTrackerSection(n, file, s, errors);
   m.Finish();
 
   // names: unique, and every reference resolves
@@ -519,6 +520,9 @@ bool BuildScene(const Scene& scene, BuiltScene* out, std::string* error) {
     }
   // the first keyframe's targets hold from the start
   out->script.Apply(w, 0.0);
+  out->has_tracker = scene.has_tracker;
+  out->tracker = scene.tracker;
+  if (scene.has_tracker && !ResolveTracker(w, &out->tracker, error)) return false;
   for (Finger& f : w.hand.fingers) (void)f;
   return true;
 }

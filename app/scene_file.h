@@ -10,6 +10,7 @@
 #include "app/script.h"
 #include "app/yaml_strict.h"
 #include "core/world.h"
+#include "tracking/tracker_config.h"
 
 namespace gs::app {
 
@@ -50,6 +51,8 @@ struct Scene {
   };
   std::vector<Pair> friction_pairs;
   std::vector<SceneKeyframe> script;
+  bool has_tracker = false;          ///< a `tracker:` section (docs/tracking.md)
+  tracking::TrackerConfig tracker;
 };
 
 /// Parses and validates a scene; false with every error found.
@@ -64,7 +67,14 @@ struct BuiltScene {
   World world;
   ScriptPlayer script;
   int tracked_body = -1;  ///< the first free body that is not a fingertip (reported in summaries)
+  bool has_tracker = false;
+  tracking::TrackerConfig tracker;  ///< with the fingertips' body indices resolved
 };
+
+/// The `tracker:` section (app/scene_tracker.cpp); reads after the bodies.
+void ReadTrackerSection(const YAML::Node& node, const std::string& file, Scene* s, std::vector<SceneError>* errors);
+/// Resolves the tracked fingertips' body indices in a built world.
+bool ResolveTracker(World& w, tracking::TrackerConfig* c, std::string* error);
 
 /// Imports meshes, samples every surface, builds trees, fingers and the script.
 bool BuildScene(const Scene& scene, BuiltScene* out, std::string* error);

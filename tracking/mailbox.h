@@ -31,6 +31,15 @@ class LatestMailbox {
     return true;
   }
 
+  /// Sets every buffer to `value` (e.g. to give vectors their capacity) and
+  /// marks nothing fresh. Only before the threads start.
+  void Fill(const T& value) {
+    for (T& b : buffers_) b = value;
+    middle_.store(1);
+    back_ = 0;
+    front_ = 2;
+  }
+
   /// Values written so far (reader - writes - reads = values dropped as stale).
   uint64_t writes() const { return writes_.load(std::memory_order_relaxed); }
 

@@ -45,7 +45,6 @@ struct TrackerConfig {
   // live
   double publish_rate_hz = 100.0;             ///< LCM poses and contacts
   std::string lcm_url;                        ///< empty: LCM's default (udpm://239.255.76.67:7667?ttl=0)
-  double rate_hz = 1000.0;                    ///< live simulation rate; must match the scene's timestep
 };
 
 }  // namespace gs::tracking

@@ -268,6 +268,7 @@ TEST(DTrackParser, SixDPositionBlockOfThreeOrMoreValues) {
 struct BadLine {
   const char* line;
   EParseError category;
+  const char* name;
 };
 
 class DTrackMalformed : public ::testing::TestWithParam<BadLine> {};
@@ -334,34 +335,35 @@ const std::string kHugeBlock = "6d 1 [0 1.000][" + [] {
 
 INSTANTIATE_TEST_SUITE_P(
     Variants, DTrackMalformed,
-    ::testing::Values(BadLine{kBodyTruncated.c_str(), EParseError::Syntax},
-                      BadLine{kBodyNan.c_str(), EParseError::NonFinite},
-                      BadLine{kBodyInf.c_str(), EParseError::NonFinite},
-                      BadLine{kBodyHuge.c_str(), EParseError::NonFinite},
-                      BadLine{kBodyComma.c_str(), EParseError::BadNumber},
-                      BadLine{kBodyCountTooLarge.c_str(), EParseError::MissingBlock},
-                      BadLine{kBodyZeroRot.c_str(), EParseError::ZeroRotation},
-                      BadLine{kBodySkewRot.c_str(), EParseError::BadRotation},
-                      BadLine{kBodyMirror.c_str(), EParseError::BadRotation},
-                      BadLine{kBodyDuplicate.c_str(), EParseError::BadValue},
-                      BadLine{kBodyQuality.c_str(), EParseError::BadValue},
-                      BadLine{kBodyNegCount.c_str(), EParseError::BadCount},
-                      BadLine{kBodyTextCount.c_str(), EParseError::BadNumber},
-                      BadLine{kBodyNoBracket.c_str(), EParseError::Syntax},
-                      BadLine{kBodyNestedBracket.c_str(), EParseError::Syntax},
-                      BadLine{kBodyFloatId.c_str(), EParseError::BadNumber},
-                      BadLine{kBodyMissingRot.c_str(), EParseError::MissingBlock},
-                      BadLine{kHandSixFingers.c_str(), EParseError::BadCount},
-                      BadLine{kHandZeroFingerRot.c_str(), EParseError::ZeroRotation},
-                      BadLine{kHandMissingFinger.c_str(), EParseError::MissingBlock},
-                      BadLine{kHandBadSide.c_str(), EParseError::BadValue},
-                      BadLine{kFlystickButtons.c_str(), EParseError::BadCount},
-                      BadLine{kFlystickAnalogsMissing.c_str(), EParseError::MissingBlock},
-                      BadLine{kFlystickWordTooBig.c_str(), EParseError::BadValue},
-                      BadLine{kHumanJoints.c_str(), EParseError::BadCount},
-                      BadLine{kInertialState.c_str(), EParseError::BadValue},
-                      BadLine{kTs2Usec.c_str(), EParseError::BadValue},
-                      BadLine{kHugeBlock.c_str(), EParseError::BadCount}));
+    ::testing::Values(BadLine{kBodyTruncated.c_str(), EParseError::Syntax, "BodyTruncated"},
+                      BadLine{kBodyNan.c_str(), EParseError::NonFinite, "BodyNan"},
+                      BadLine{kBodyInf.c_str(), EParseError::NonFinite, "BodyInf"},
+                      BadLine{kBodyHuge.c_str(), EParseError::NonFinite, "BodyHuge"},
+                      BadLine{kBodyComma.c_str(), EParseError::BadNumber, "BodyComma"},
+                      BadLine{kBodyCountTooLarge.c_str(), EParseError::MissingBlock, "BodyCountTooLarge"},
+                      BadLine{kBodyZeroRot.c_str(), EParseError::ZeroRotation, "BodyZeroRot"},
+                      BadLine{kBodySkewRot.c_str(), EParseError::BadRotation, "BodySkewRot"},
+                      BadLine{kBodyMirror.c_str(), EParseError::BadRotation, "BodyMirror"},
+                      BadLine{kBodyDuplicate.c_str(), EParseError::BadValue, "BodyDuplicate"},
+                      BadLine{kBodyQuality.c_str(), EParseError::BadValue, "BodyQuality"},
+                      BadLine{kBodyNegCount.c_str(), EParseError::BadCount, "BodyNegCount"},
+                      BadLine{kBodyTextCount.c_str(), EParseError::BadNumber, "BodyTextCount"},
+                      BadLine{kBodyNoBracket.c_str(), EParseError::Syntax, "BodyNoBracket"},
+                      BadLine{kBodyNestedBracket.c_str(), EParseError::Syntax, "BodyNestedBracket"},
+                      BadLine{kBodyFloatId.c_str(), EParseError::BadNumber, "BodyFloatId"},
+                      BadLine{kBodyMissingRot.c_str(), EParseError::MissingBlock, "BodyMissingRot"},
+                      BadLine{kHandSixFingers.c_str(), EParseError::BadCount, "HandSixFingers"},
+                      BadLine{kHandZeroFingerRot.c_str(), EParseError::ZeroRotation, "HandZeroFingerRot"},
+                      BadLine{kHandMissingFinger.c_str(), EParseError::MissingBlock, "HandMissingFinger"},
+                      BadLine{kHandBadSide.c_str(), EParseError::BadValue, "HandBadSide"},
+                      BadLine{kFlystickButtons.c_str(), EParseError::BadCount, "FlystickButtons"},
+                      BadLine{kFlystickAnalogsMissing.c_str(), EParseError::MissingBlock, "FlystickAnalogsMissing"},
+                      BadLine{kFlystickWordTooBig.c_str(), EParseError::BadValue, "FlystickWordTooBig"},
+                      BadLine{kHumanJoints.c_str(), EParseError::BadCount, "HumanJoints"},
+                      BadLine{kInertialState.c_str(), EParseError::BadValue, "InertialState"},
+                      BadLine{kTs2Usec.c_str(), EParseError::BadValue, "Ts2Usec"},
+                      BadLine{kHugeBlock.c_str(), EParseError::BadCount, "HugeBlock"}),
+    [](const ::testing::TestParamInfo<BadLine>& info) { return std::string(info.param.name); });
 
 TEST(DTrackParser, FrameCounterAndTimestampRange) {
   DTrackParser p;

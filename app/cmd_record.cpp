@@ -1,0 +1,102 @@
+// `graspsim record --port P -o FILE.lcmlog [--duration S]`: writes every DTrack
+// datagram received, raw, with its arrival time, to an LCM event log
+// (graspsim.dtrack_datagram_t on channel DTRACK_RAW). Ctrl-C stops.
+#include <chrono>
+#include <cstdio>
+#include <memory>
+#include <mutex>
+#include <thread>
+
+#include "app/commands.h"
+#include "app/tracker_app.h"
+#include "tracking/session_log.h"
+
+namespace gs::app {
+namespace {
+
+struct RecordOptions {
+  tracking::UdpOptions udp;
+  std::string out;
+  double duration = 0.0;
+  bool quiet = false;
+};
+
+int Record(const RecordOptions& opt) {
+  std::string error;
+  tracking::SessionWriter writer;
+  if (!writer.Open(opt.out, &error)) {
+    std::fprintf(stderr, "record: %s\n", error.c_str());
+    return kExitBadInput;
+  }
+  tracking::UdpReceiver rx;
+  if (!rx.Open(opt.udp, &error)) {
+    std::fprintf(stderr, "record: %s\n", error.c_str());
+    return kExitBadInput;
+  }
+  InstallStopSignals();
+  // the receiver thread writes each datagram as it arrives and parses it for the error counts
+  std::mutex mu;
+  tracking::DTrackParser parser;
+  tracking::DTrackFrame frame;
+  uint64_t write_errors = 0;
+  int64_t first_ns = -1, last_ns = -1;
+  rx.Start([&](const tracking::Datagram& d) {
+    std::lock_guard<std::mutex> lock(mu);
+    if (!writer.Write(d)) ++write_errors;
+    if (d.truncated)
+      parser.CountOversized(d.size);
+    else
+      parser.Parse(d.data, d.size, &frame);
+    if (first_ns < 0) first_ns = d.monotonic_ns;
+    last_ns = d.monotonic_ns;
+  });
+  std::printf("record: listening on UDP port %d%s%s, writing %s (Ctrl-C stops)\n", rx.port(),
+              opt.udp.multicast_group.empty() ? "" : ", group ", opt.udp.multicast_group.c_str(), opt.out.c_str());
+  std::fflush(stdout);
+  const auto t0 = std::chrono::steady_clock::now();
+  const bool tty = StdoutIsTerminal() && !opt.quiet;
+  while (!StopRequested()) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (opt.duration > 0 && elapsed >= opt.duration) break;
+    if (tty) {
+      std::lock_guard<std::mutex> lock(mu);
+      std::printf("\r  %.1f s  %llu datagrams  %s parse errors   ", elapsed,
+                  static_cast<unsigned long long>(writer.written()), FormatParseErrors(parser.stats()).c_str());
+      std::fflush(stdout);
+    }
+  }
+  rx.Stop();
+  writer.Close();
+  if (tty) std::printf("\n");
+  const uint64_t n = writer.written();
+  const double span = n > 1 ? 1e-9 * static_cast<double>(last_ns - first_ns) : 0.0;
+  std::printf("record: %llu datagrams (%.1f Hz) written to %s; parse errors %s; %llu rejected senders; %llu write errors\n",
+              static_cast<unsigned long long>(n), span > 0 ? static_cast<double>(n - 1) / span : 0.0, opt.out.c_str(),
+              FormatParseErrors(parser.stats()).c_str(),
+              static_cast<unsigned long long>(rx.stats().rejected_sender.load()),
+              static_cast<unsigned long long>(write_errors));
+  if (parser.stats().TotalErrors()) std::printf("record: last parse error: %s\n", parser.last_error());
+  return write_errors ? kExitFailure : kExitOk;
+}
+
+}  // namespace
+
+void AddRecordCommand(CLI::App& app, int* exit_code) {
+  auto opt = std::make_shared<RecordOptions>();
+  CLI::App* cmd = app.add_subcommand("record", "Record DTrack UDP datagrams, raw with arrival times, to an LCM log");
+  cmd->add_option("--port", opt->udp.port, "UDP port the tracker sends to (0: any free port)")
+      ->required()
+      ->check(CLI::Range(0, 65535));
+  cmd->add_option("-o,--out", opt->out, "the LCM event log to write (FILE.lcmlog)")->required();
+  cmd->add_option("--duration", opt->duration, "stop after this many seconds (default: Ctrl-C)")
+      ->check(CLI::PositiveNumber);
+  cmd->add_option("--multicast", opt->udp.multicast_group, "join this multicast group (e.g. 224.0.1.0)");
+  cmd->add_option("--allow", opt->udp.allowed_senders, "accept datagrams only from these IPv4 addresses");
+  cmd->add_option("--controller", opt->udp.controller,
+                  "send the DTrack firewall nudge to this Controller address (UDP 50107)");
+  cmd->add_flag("--quiet", opt->quiet, "no status line");
+  cmd->callback([opt, exit_code]() { *exit_code = Record(*opt); });
+}
+
+}  // namespace gs::app

@@ -1,0 +1,243 @@
+// `graspsim replay [SCENE] FILE.lcmlog [--out DIR] [--realtime]`: replays a
+// recorded tracker session headless. Each datagram applies at its recorded
+// arrival time in simulated time (the first at t = 0), so the same log and
+// scene give bit-identical outputs on every run, at any speed.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <sstream>
+#include <thread>
+
+#include "app/commands.h"
+#include "app/paths.h"
+#include "app/tracked_sim.h"
+#include "app/tracker_app.h"
+#include "tracking/session_log.h"
+
+namespace gs::app {
+namespace {
+
+struct ReplayOptions {
+  std::vector<std::string> args;  // [SCENE] LOG
+  std::string out;
+  double duration = 0.0;
+  double tail = 0.5;
+  bool realtime = false;
+  bool quiet = false;
+};
+
+void Row(std::ostream& o, double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof(buf), ",%.17g", v);
+  o << buf;
+}
+
+void ProgressBar(double fraction, double t, double total) {
+  const int width = 40;
+  const int filled = static_cast<int>(fraction * width);
+  std::printf("\r  [%s%s] %5.1f%%  t=%.2f/%.2f s", std::string(filled, '#').c_str(),
+              std::string(width - filled, '.').c_str(), 100.0 * fraction, t, total);
+  std::fflush(stdout);
+}
+
+int Replay(const ReplayOptions& opt) {
+  std::string scene_path = "config/tracked_hand.yaml", log_path;
+  if (opt.args.size() == 1) {
+    log_path = opt.args[0];
+  } else if (opt.args.size() == 2) {
+    scene_path = opt.args[0];
+    log_path = opt.args[1];
+  } else {
+    std::fprintf(stderr, "replay: give [SCENE] FILE.lcmlog\n");
+    return kExitUsage;
+  }
+  std::string error;
+  std::vector<tracking::RecordedDatagram> log;
+  tracking::SessionReadStats log_stats;
+  if (!tracking::ReadSession(log_path, &log, &error, &log_stats)) {
+    std::fprintf(stderr, "replay: %s\n", error.c_str());
+    return kExitBadInput;
+  }
+  if (log.empty()) {
+    std::fprintf(stderr, "replay: %s: no datagrams on channel %s (%llu events on other channels)\n", log_path.c_str(),
+                 tracking::kRawChannel, static_cast<unsigned long long>(log_stats.other_channels));
+    return kExitBadInput;
+  }
+  auto sim = std::make_unique<TrackedSim>();
+  if (!sim->Load(ResolveResource(scene_path), &error)) {
+    std::fprintf(stderr, "%s\n", error.c_str());
+    return kExitBadInput;
+  }
+  World& w = sim->world();
+  const double dt = w.params.dt;
+  auto arrival = [&](size_t i) { return 1e-6 * static_cast<double>(log[i].monotonic_utime - log[0].monotonic_utime); };
+  const double duration = opt.duration > 0 ? opt.duration : arrival(log.size() - 1) + opt.tail;
+  const int64_t steps = static_cast<int64_t>(std::ceil(duration / dt - 1e-9));
+  std::printf("replay: %s in scene %s: %zu datagrams over %.3f s; simulating %.3f s (%lld steps)\n", log_path.c_str(),
+              sim->scene().name.c_str(), log.size(), arrival(log.size() - 1), duration,
+              static_cast<long long>(steps));
+  std::fflush(stdout);
+
+  // outputs: everything deterministic (no wall times)
+  std::ostringstream traj, tips, frames;
+  traj << "time_s";
+  for (const Body& b : w.bodies)
+    if (b.motion == EMotion::Free)
+      for (const char* c : {"x", "y", "z", "qw", "qx", "qy", "qz"}) traj << "," << b.name << "_" << c;
+  traj << "\n";
+  const auto& fmap = sim->config().fingertips;
+  tips << "time_s";
+  for (const auto& f : fmap)
+    for (const char* c : {"state", "target_x", "target_y", "target_z", "force_x", "force_y", "force_z"})
+      tips << "," << f.name << "_" << c;
+  tips << "\n";
+  frames << "time_s,arrival_s,sequence,frame,parse_errors,valid\n";
+
+  const int tracked = sim->scene().tracked_body;
+  const Vec3 start = tracked >= 0 ? w.bodies[tracked].pose.t : Vec3::Zero();
+  double max_rise = 0.0, max_coupling = 0.0, max_penetration = 0.0;
+  double lifted_time = 0.0;  // simulated seconds with the box 2 cm or more above its start
+  size_t next = 0;
+  tracking::TargetSample sample;
+  const bool tty = StdoutIsTerminal() && !opt.quiet;
+  InstallStopSignals();
+  using Clock = std::chrono::steady_clock;
+  const auto t0 = Clock::now();
+  int64_t step = 0;
+  std::vector<double> step_ms;  // wall time per step: printed, never written (outputs stay deterministic)
+  step_ms.reserve(static_cast<size_t>(steps));
+  int max_iterations = 0, max_contacts = 0;
+  double slowest_detect = 0, slowest_solve = 0;
+  for (; step < steps && !StopRequested(); ++step) {
+    // every datagram that arrived by now applies from this step on
+    while (next < log.size() && arrival(next) <= w.time + 1e-12) {
+      const tracking::RecordedDatagram& d = log[next];
+      sim->Ingest(d.data.data(), d.data.size(), false, &sample);
+      sample.sequence = static_cast<uint64_t>(d.sequence);
+      sim->Push(sample);
+      int mask = 0;
+      for (int i = 0; i < sample.count; ++i) mask |= sample.valid[i] ? 1 << i : 0;
+      frames << w.time;
+      Row(frames, arrival(next));
+      frames << "," << d.sequence << "," << sample.frame << "," << sample.parse_errors << "," << mask << "\n";
+      ++next;
+    }
+    if (opt.realtime)
+      std::this_thread::sleep_until(t0 + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(w.time)));
+    sim->Step();
+    step_ms.push_back(1e3 * w.profile.total);
+    if (1e3 * w.profile.total >= *std::max_element(step_ms.begin(), step_ms.end())) {
+      slowest_detect = 1e3 * (w.profile.traverse + w.profile.interpenetration + w.profile.refit);
+      slowest_solve = 1e3 * w.profile.solve;
+    }
+    max_iterations = std::max(max_iterations, w.profile.iterations);
+    max_contacts = std::max(max_contacts, w.profile.contacts);
+    for (const ContactRow& r : w.rows) max_penetration = std::max(max_penetration, -r.contact.gap);
+    if (tracked >= 0) {
+      const double rise = w.bodies[tracked].pose.t.z() - start.z();
+      max_rise = std::max(max_rise, rise);
+      if (rise >= 0.02) lifted_time += dt;
+    }
+    for (int i = 0; i < sim->follower().size(); ++i) {
+      const int b = sim->follower().body(i);
+      if (b >= 0) max_coupling = std::max(max_coupling, CouplingSpringForce(w.bodies[b]).norm());
+    }
+    if ((step + 1) % 10 == 0) {
+      traj << w.time;
+      for (const Body& b : w.bodies) {
+        if (b.motion != EMotion::Free) continue;
+        const Quat q(b.pose.R);
+        for (double v : {b.pose.t.x(), b.pose.t.y(), b.pose.t.z(), q.w(), q.x(), q.y(), q.z()}) Row(traj, v);
+      }
+      traj << "\n";
+      tips << w.time;
+      for (int i = 0; i < sim->follower().size(); ++i) {
+        const int b = sim->follower().body(i);
+        const Vec3 f = b >= 0 ? CouplingSpringForce(w.bodies[b]) : Vec3::Zero();
+        const Vec3& t = sim->follower().target(i).t;
+        tips << "," << tracking::TipStateName(sim->follower().state(i));
+        for (double v : {t.x(), t.y(), t.z(), f.x(), f.y(), f.z()}) Row(tips, v);
+      }
+      tips << "\n";
+    }
+    if (tty && (step % 100 == 0 || step + 1 == steps)) ProgressBar(static_cast<double>(step + 1) / steps, w.time, duration);
+  }
+  const double wall = std::chrono::duration<double>(Clock::now() - t0).count();
+  if (tty) std::printf("\n");
+  if (step < steps) std::printf("replay: interrupted at t=%.3f s\n", w.time);
+  const tracking::ParseStats& ps = sim->parser().stats();
+  const bool lifted = max_rise >= 0.02;
+  std::printf("replay: %lld steps in %.2f s wall (%.2fx real time); %zu datagrams applied; parse errors %s\n",
+              static_cast<long long>(step), wall, wall > 0 ? w.time / wall : 0.0, next,
+              FormatParseErrors(ps).c_str());
+  if (tracked >= 0)
+    std::printf("replay: %s highest rise %.2f mm, held 2 cm up for %.3f s, final (%.4f, %.4f, %.4f) m%s\n",
+                w.bodies[tracked].name.c_str(), 1e3 * max_rise, lifted_time, w.bodies[tracked].pose.t.x(),
+                w.bodies[tracked].pose.t.y(), w.bodies[tracked].pose.t.z(), lifted ? ": grasped and lifted" : "");
+  if (!step_ms.empty()) {
+    std::vector<double> sorted = step_ms;
+    std::sort(sorted.begin(), sorted.end());
+    std::printf("replay: step median %.3f ms, p99 %.3f ms, max %.3f ms (collision %.3f ms, solve %.3f ms); up to %d "
+                "contacts and %d Gauss-Seidel sweeps\n",
+                sorted[sorted.size() / 2], sorted[static_cast<size_t>(0.99 * (sorted.size() - 1))], sorted.back(),
+                slowest_detect, slowest_solve, max_contacts, max_iterations);
+  }
+  std::printf("replay: max coupling force %.2f N, max penetration %.3f mm, %lld rejected steps, %lld unconverged\n",
+              max_coupling, 1e3 * max_penetration, static_cast<long long>(w.rejected_steps),
+              static_cast<long long>(w.unconverged_steps));
+
+  if (!opt.out.empty()) {
+    std::error_code ec;
+    std::filesystem::create_directories(opt.out, ec);
+    std::ostringstream js;
+    js.precision(17);
+    js << "{\"scene\":\"" << sim->scene().name << "\",\"log\":\"" << std::filesystem::path(log_path).filename().string()
+       << "\",\"datagrams\":" << log.size() << ",\"datagrams_applied\":" << next << ",\"steps\":" << step
+       << ",\"dt_s\":" << dt << ",\"simulated_s\":" << w.time << ",\"parse_errors\":" << ps.TotalErrors()
+       << ",\"parse_errors_by_category\":" << ParseErrorsJson(ps) << ",\"rejected_steps\":" << w.rejected_steps
+       << ",\"unconverged_steps\":" << w.unconverged_steps << ",\"max_coupling_force_N\":" << max_coupling
+       << ",\"max_penetration_m\":" << max_penetration;
+    if (tracked >= 0)
+      js << ",\"tracked_body\":\"" << w.bodies[tracked].name << "\",\"max_rise_m\":" << max_rise
+         << ",\"lifted_s\":" << lifted_time << ",\"lifted\":" << (lifted ? "true" : "false") << ",\"final_position_m\":["
+         << w.bodies[tracked].pose.t.x() << "," << w.bodies[tracked].pose.t.y() << "," << w.bodies[tracked].pose.t.z()
+         << "]";
+    js << "}\n";
+    const std::pair<const char*, std::string> files[] = {{"trajectory.csv", traj.str()},
+                                                        {"fingertips.csv", tips.str()},
+                                                        {"tracker.csv", frames.str()},
+                                                        {"summary.json", js.str()}};
+    for (const auto& [name, text] : files) {
+      std::ofstream f(std::filesystem::path(opt.out) / name, std::ios::binary);
+      f << text;
+      if (!f) {
+        std::fprintf(stderr, "replay: cannot write %s/%s\n", opt.out.c_str(), name);
+        return kExitFailure;
+      }
+    }
+    std::printf("replay: wrote %s/trajectory.csv, fingertips.csv, tracker.csv, summary.json\n", opt.out.c_str());
+  }
+  return step < steps ? kExitInterrupted : kExitOk;
+}
+
+}  // namespace
+
+void AddReplayCommand(CLI::App& app, int* exit_code) {
+  auto opt = std::make_shared<ReplayOptions>();
+  CLI::App* cmd = app.add_subcommand(
+      "replay", "Replay a recorded tracker session headless, deterministic (scene default: config/tracked_hand.yaml)");
+  cmd->add_option("args", opt->args, "[SCENE] FILE.lcmlog")->required()->expected(1, 2);
+  cmd->add_option("--out", opt->out, "output folder: trajectory.csv, fingertips.csv, tracker.csv, summary.json");
+  cmd->add_flag("--realtime", opt->realtime, "at the recorded pace instead of as fast as possible");
+  cmd->add_option("--duration", opt->duration, "simulated seconds (default: the session plus --tail)")
+      ->check(CLI::PositiveNumber);
+  cmd->add_option("--tail", opt->tail, "seconds simulated after the last datagram")->check(CLI::Range(0.0, 1e6));
+  cmd->add_flag("--quiet", opt->quiet, "no progress bar");
+  cmd->callback([opt, exit_code]() { *exit_code = Replay(*opt); });
+}
+
+}  // namespace gs::app

@@ -1,0 +1,53 @@
+// The live application's threads (DESIGN.md, Threads):
+//   receiver thread   UDP -> parser -> fingertip targets -> latest-value mailbox
+//                     (each sample stamped with its arrival time)
+//   simulation thread fixed rate (the scene's timestep, 1 kHz by default) on
+//                     absolute deadlines: newest sample from the mailbox, one
+//                     step, a snapshot into a second mailbox at the publish rate;
+//                     counts overruns (a step that ends after its deadline)
+//   calling thread    publishes snapshots on LCM and prints the status line
+// The simulation thread never blocks on the others and does not allocate.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "app/tracked_sim.h"
+#include "tracking/udp_receiver.h"
+
+namespace gs::app {
+
+struct LiveOptions {
+  tracking::UdpOptions udp;
+  double duration = 0.0;        ///< s; 0: until Ctrl-C
+  double publish_rate = 100.0;  ///< Hz; 0: no publishing
+  std::string lcm_url;          ///< empty: LCM's default
+  bool status = true;           ///< status line (on a terminal: one updated line; otherwise a line every 5 s)
+  bool quiet = false;
+};
+
+struct LiveStats {
+  double wall_s = 0.0;
+  int64_t steps = 0;
+  int64_t overruns = 0;         ///< steps that ended after their deadline
+  int64_t skipped_steps = 0;    ///< deadlines given up after falling more than 50 ms behind
+  double step_median_ms = 0.0, step_p99_ms = 0.0, step_max_ms = 0.0;
+  uint64_t datagrams = 0;       ///< received and parsed
+  uint64_t samples_applied = 0; ///< taken from the mailbox by the simulation (the rest were stale)
+  double tracker_hz = 0.0;      ///< received rate: (n - 1) / (last - first arrival)
+  tracking::ParseStats parse;
+  uint64_t rejected_senders = 0;
+  uint64_t published = 0;       ///< LCM messages (poses + contacts)
+  bool lcm_ok = false;
+  /// per applied sample: steps from the step in progress at its arrival to the
+  /// step that applied it, and µs from arrival to the end of that step
+  std::vector<int> latency_steps;
+  std::vector<double> latency_us;
+  double sim_rate_hz() const { return wall_s > 0 ? static_cast<double>(steps) / wall_s : 0.0; }
+};
+
+/// Runs until the duration ends or Ctrl-C. False with a message when the
+/// socket cannot be opened.
+bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::string* error);
+
+}  // namespace gs::app

@@ -1,0 +1,74 @@
+// graspsim live receives graspsim send on loopback: the tracker rate received
+// equals the rate sent, no parse errors, the 1 kHz simulation rate holds, and
+// poses and contacts are published on LCM (here into an LCM log file URL).
+#include <gtest/gtest.h>
+#include <lcm/lcm-cpp.hpp>
+
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <thread>
+
+#include "graspsim/contacts_t.hpp"
+#include "graspsim/poses_t.hpp"
+#include "test_util.h"
+#include "tracking/session_log.h"
+
+namespace gs::tracking {
+namespace {
+
+double JsonNumber(const std::string& text, const std::string& key) {
+  const size_t at = text.find("\"" + key + "\":");
+  if (at == std::string::npos) return NAN;
+  return std::strtod(text.c_str() + at + key.size() + 3, nullptr);
+}
+
+TEST(Live, ReceivesSendOnLoopbackAtTheRateSentAndHoldsItsRate) {
+  const std::string dir = test::TempDir("live");
+  const int port = test::FreeUdpPort();
+  const std::string scene = std::string(GRASPSIM_TEST_DATA) + "/tracking/tracked_hand_light.yaml";
+  test::Background live(test::Binary() + " live " + scene + " --port " + std::to_string(port) +
+                        " --duration 4.5 --publish-rate 50 --lcm-url 'file://" + dir + "/live.lcmlog?mode=w'");
+  std::this_thread::sleep_for(std::chrono::milliseconds(1000));
+  const test::Result send = test::Run(test::Binary() + " send --synthetic --rate 100 --port " + std::to_string(port));
+  ASSERT_EQ(send.code, 0) << send.output;
+  const test::Result r = live.Wait();
+  ASSERT_EQ(r.code, 0) << r.output;
+  const std::string json = r.output.substr(r.output.rfind("{\"live\""));
+  EXPECT_EQ(JsonNumber(json, "datagrams"), 291) << r.output;
+  EXPECT_NEAR(JsonNumber(json, "tracker_hz"), 100.0, 1.0) << r.output;
+  EXPECT_EQ(JsonNumber(json, "parse_errors"), 0) << r.output;
+#ifndef GRASPSIM_SANITIZED
+  EXPECT_GE(JsonNumber(json, "sim_rate_hz"), 950.0) << r.output;  // the 1 kHz rate held
+#endif
+  EXPECT_NE(json.find("\"lcm_ok\":true"), std::string::npos) << r.output;
+
+  // what was published: poses and contacts at about 50 Hz each
+  lcm::LogFile log(dir + "/live.lcmlog", "r");
+  ASSERT_TRUE(log.good());
+  int poses = 0, contacts = 0, contacts_with_force = 0;
+  while (const lcm::LogEvent* ev = log.readNextEvent()) {
+    if (ev->channel == kPosesChannel) {
+      graspsim::poses_t m;
+      ASSERT_GE(m.decode(ev->data, 0, ev->datalen), 0);
+      ASSERT_EQ(m.num_bodies, 5);
+      ASSERT_EQ(m.num_fingertips, 3);
+      EXPECT_EQ(m.fingertips[0].name, "thumb");
+      EXPECT_EQ(m.fingertips[0].body, "thumb_tip");
+      ++poses;
+    } else if (ev->channel == kContactsChannel) {
+      graspsim::contacts_t m;
+      ASSERT_GE(m.decode(ev->data, 0, ev->datalen), 0);
+      ASSERT_EQ(m.num_contacts, static_cast<int>(m.contacts.size()));
+      for (const auto& c : m.contacts) contacts_with_force += c.normal_force > 0 && c.body_a.size() && c.body_b.size();
+      ++contacts;
+    }
+  }
+  const double wall = JsonNumber(json, "wall_s");
+  EXPECT_NEAR(poses, 50 * wall, 0.1 * 50 * wall);
+  EXPECT_EQ(poses, contacts);
+  EXPECT_GT(contacts_with_force, 0) << "the grasp's contact forces were published";
+}
+
+}  // namespace
+}  // namespace gs::tracking

@@ -1,0 +1,82 @@
+// End to end through the graspsim binary: send --synthetic into record, then
+// replay the recording twice: the box is grasped and lifted, and the two
+// replays write bit-identical files.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <thread>
+
+#include "test_util.h"
+
+namespace gs::tracking {
+namespace {
+
+using test::Binary;
+
+TEST(SessionsEndToEnd, SendRecordReplayGraspsLiftsAndIsDeterministic) {
+  const std::string dir = test::TempDir("e2e");
+  const std::string log = dir + "/session.lcmlog";
+  const int port = test::FreeUdpPort();
+  test::Background record(Binary() + " record --quiet --port " + std::to_string(port) + " -o " + log +
+                          " --duration 3.8");
+  std::this_thread::sleep_for(std::chrono::milliseconds(400));
+  const test::Result send = test::Run(Binary() + " send --synthetic --port " + std::to_string(port));
+  ASSERT_EQ(send.code, 0) << send.output;
+  const test::Result rec = record.Wait();
+  ASSERT_EQ(rec.code, 0) << rec.output;
+  EXPECT_NE(rec.output.find("record: 291 datagrams"), std::string::npos) << rec.output;
+  EXPECT_NE(rec.output.find("parse errors 0"), std::string::npos) << rec.output;
+
+  // the grasp and lift are over by 2 s of the session
+  std::string summary[2];
+  uint64_t hashes[2] = {0, 0};
+  for (int run = 0; run < 2; ++run) {
+    const std::string out = dir + "/replay" + std::to_string(run);
+    const test::Result r = test::Run(Binary() + " replay config/tracked_hand.yaml " + log + " --duration 2.0 --out " + out);
+    ASSERT_EQ(r.code, 0) << r.output;
+    EXPECT_EQ(r.output.find('\r'), std::string::npos) << "no progress bar when stdout is not a terminal";
+    uint64_t h = 0;
+    for (const char* f : {"trajectory.csv", "fingertips.csv", "tracker.csv", "summary.json"}) {
+      const std::string text = test::ReadFile(out + "/" + f);
+      ASSERT_FALSE(text.empty()) << f;
+      h = h * 31 + test::Hash(text);
+    }
+    hashes[run] = h;
+    summary[run] = test::ReadFile(out + "/summary.json");
+  }
+  EXPECT_EQ(hashes[0], hashes[1]) << "replays differ";
+  EXPECT_NE(summary[0].find("\"lifted\":true"), std::string::npos) << summary[0];
+  EXPECT_NE(summary[0].find("\"parse_errors\":0"), std::string::npos) << summary[0];
+  // about 200 of the 291 datagrams arrived within the first 2 s (their recorded arrival times decide)
+  const size_t at = summary[0].find("\"datagrams_applied\":");
+  ASSERT_NE(at, std::string::npos);
+  const int applied = std::atoi(summary[0].c_str() + at + 20);
+  EXPECT_GE(applied, 190);
+  EXPECT_LE(applied, 210);
+  EXPECT_NE(summary[0].find("\"rejected_steps\":0"), std::string::npos) << summary[0];
+}
+
+TEST(SessionsEndToEnd, ReplayRefusesBadInputWithAMessage) {
+  const std::string dir = test::TempDir("e2e_bad");
+  test::Result r = test::Run(Binary() + " replay " + dir + "/missing.lcmlog");
+  EXPECT_EQ(r.code, 3);
+  EXPECT_NE(r.output.find("missing.lcmlog"), std::string::npos) << r.output;
+  {
+    std::ofstream f(dir + "/text.lcmlog");
+    f << "this is not an LCM log\n";
+  }
+  r = test::Run(Binary() + " replay " + dir + "/text.lcmlog");
+  EXPECT_EQ(r.code, 3) << r.output;
+  EXPECT_NE(r.output.find("no datagrams"), std::string::npos) << r.output;
+  // a scene without a tracker section
+  r = test::Run(Binary() + " replay config/paper_box_grasp.yaml " + std::string(GRASPSIM_SOURCE_DIR) +
+                "/assets/demo_session.lcmlog");
+  EXPECT_EQ(r.code, 3) << r.output;
+  EXPECT_NE(r.output.find("tracker"), std::string::npos) << r.output;
+  // send without a source
+  r = test::Run(Binary() + " send --port 9");
+  EXPECT_EQ(r.code, 2) << r.output;
+}
+
+}  // namespace
+}  // namespace gs::tracking
