@@ -50,14 +50,20 @@ int Record(const RecordOptions& opt) {
     if (first_ns < 0) first_ns = d.monotonic_ns;
     last_ns = d.monotonic_ns;
   });
-  std::printf("record: listening on UDP port %d%s%s, writing %s (Ctrl-C stops)\n", rx.port(),
-              opt.udp.multicast_group.empty() ? "" : ", group ", opt.udp.multicast_group.c_str(), opt.out.c_str());
+  std::printf("record: listening on UDP port %d%s%s (receive buffer %d bytes), writing %s (Ctrl-C stops)\n",
+              rx.port(), opt.udp.multicast_group.empty() ? "" : ", group ", opt.udp.multicast_group.c_str(),
+              rx.receive_buffer_bytes(), opt.out.c_str());
   std::fflush(stdout);
   const auto t0 = std::chrono::steady_clock::now();
   const bool tty = StdoutIsTerminal() && !opt.quiet;
   while (!StopRequested()) {
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
     const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    {
+      // every 50 ms what was received goes to the kernel: a SIGKILL loses at most the last 50 ms
+      std::lock_guard<std::mutex> lock(mu);
+      if (!writer.Flush()) ++write_errors;
+    }
     if (opt.duration > 0 && elapsed >= opt.duration) break;
     if (tty) {
       std::lock_guard<std::mutex> lock(mu);
@@ -76,6 +82,10 @@ int Record(const RecordOptions& opt) {
               FormatParseErrors(parser.stats()).c_str(),
               static_cast<unsigned long long>(rx.stats().rejected_sender.load()),
               static_cast<unsigned long long>(write_errors));
+  // what reached the socket was written; what the kernel dropped on a full buffer never reached it
+  std::printf("record: socket received %llu datagrams, the kernel dropped %llu (receive buffer full; raise --rcvbuf)\n",
+              static_cast<unsigned long long>(rx.stats().received.load()),
+              static_cast<unsigned long long>(rx.stats().kernel_drops.load()));
   if (parser.stats().TotalErrors()) std::printf("record: last parse error: %s\n", parser.last_error());
   return write_errors ? kExitFailure : kExitOk;
 }
@@ -95,6 +105,9 @@ void AddRecordCommand(CLI::App& app, int* exit_code) {
   cmd->add_option("--allow", opt->udp.allowed_senders, "accept datagrams only from these IPv4 addresses");
   cmd->add_option("--controller", opt->udp.controller,
                   "send the DTrack firewall nudge to this Controller address (UDP 50107)");
+  cmd->add_option("--rcvbuf", opt->udp.socket_buffer_bytes,
+                  "socket receive buffer in bytes (default 4 MiB; beyond net.core.rmem_max only as root)")
+      ->check(CLI::Range(4096, 1 << 30));
   cmd->add_flag("--quiet", opt->quiet, "no status line");
   cmd->callback([opt, exit_code]() { *exit_code = Record(*opt); });
 }

@@ -67,6 +67,12 @@ int Replay(const ReplayOptions& opt) {
                  tracking::kRawChannel, static_cast<unsigned long long>(summary.stats.other_channels));
     return kExitBadInput;
   }
+  if (summary.stats.trailing_bytes)
+    std::fprintf(stderr,
+                 "replay: warning: %s ends with %llu bytes of an incomplete event (the recording was cut short); "
+                 "replaying the %llu whole datagrams before it\n",
+                 log_path.c_str(), static_cast<unsigned long long>(summary.stats.trailing_bytes),
+                 static_cast<unsigned long long>(summary.datagrams));
   tracking::SessionReader reader;
   if (!reader.Open(log_path, &error)) {
     std::fprintf(stderr, "replay: %s\n", error.c_str());
@@ -85,6 +91,7 @@ int Replay(const ReplayOptions& opt) {
   const double span = 1e-6 * static_cast<double>(summary.last_monotonic_utime - summary.first_monotonic_utime);
   const double duration = opt.duration > 0 ? opt.duration : span + opt.tail;
   const int64_t steps = static_cast<int64_t>(std::ceil(duration / dt - 1e-9));
+  InstallStopSignals();  // before the header line: who saw it can stop the replay with SIGINT or SIGTERM
   std::printf("replay: %s in scene %s: %zu datagrams over %.3f s; simulating %.3f s (%lld steps)\n", log_path.c_str(),
               sim->scene().name.c_str(), static_cast<size_t>(summary.datagrams), span, duration,
               static_cast<long long>(steps));
@@ -114,7 +121,6 @@ int Replay(const ReplayOptions& opt) {
   tracking::RecordedDatagram d;
   bool pending = reader.Next(&d);
   const bool tty = StdoutIsTerminal() && !opt.quiet;
-  InstallStopSignals();
   using Clock = std::chrono::steady_clock;
   const auto t0 = Clock::now();
   int64_t step = 0;

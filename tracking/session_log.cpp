@@ -2,6 +2,7 @@
 
 #include <lcm/lcm-cpp.hpp>
 
+#include <cstdio>
 #include <filesystem>
 
 #include "graspsim/dtrack_datagram_t.hpp"
@@ -48,6 +49,8 @@ bool SessionWriter::Write(const Datagram& d) {
   return true;
 }
 
+bool SessionWriter::Flush() { return log_ && std::fflush(log_->getFilePtr()) == 0; }
+
 void SessionWriter::Close() { log_.reset(); }
 
 SessionReader::SessionReader() = default;
@@ -58,6 +61,7 @@ bool SessionReader::Open(const std::string& path, std::string* error) {
   error_.clear();
   stats_ = SessionReadStats();
   last_ = INT64_MIN;
+  good_end_ = 0;
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec)) {
     *error = error_ = path + ": no such session log";
@@ -76,6 +80,7 @@ bool SessionReader::Next(RecordedDatagram* out) {
   if (!log_ || !error_.empty()) return false;
   while (const lcm::LogEvent* ev = log_->readNextEvent()) {
     ++stats_.events;
+    good_end_ = std::ftell(log_->getFilePtr());
     if (ev->channel != kRawChannel) {
       ++stats_.other_channels;
       continue;
@@ -99,6 +104,10 @@ bool SessionReader::Next(RecordedDatagram* out) {
     out->data.assign(m.data.begin(), m.data.end());
     return true;
   }
+  std::error_code ec;
+  const auto size = std::filesystem::file_size(path_, ec);
+  if (!ec && good_end_ >= 0 && size > static_cast<uintmax_t>(good_end_))
+    stats_.trailing_bytes = static_cast<uint64_t>(size - static_cast<uintmax_t>(good_end_));
   return false;
 }
 

@@ -38,6 +38,9 @@ class SessionWriter {
   bool Open(const std::string& path, std::string* error);
   bool Write(const Datagram& d);
   uint64_t written() const { return written_; }
+  /// Hands what is buffered to the kernel, so that a crash or SIGKILL of this
+  /// process loses nothing written before (the log stays readable up to its last whole event).
+  bool Flush();
   void Close();
 
  private:
@@ -48,6 +51,9 @@ class SessionWriter {
 struct SessionReadStats {
   uint64_t events = 0;            ///< events in the log
   uint64_t other_channels = 0;    ///< events on other channels (ignored)
+  /// Bytes after the last whole event: a recording cut short (killed, disk full)
+  /// ends with part of an event, which is ignored. Set once the end is reached.
+  uint64_t trailing_bytes = 0;
 };
 
 /// Reads a session log one datagram at a time (sessions can be longer than memory).
@@ -66,6 +72,7 @@ class SessionReader {
   std::string path_, error_;
   SessionReadStats stats_;
   int64_t last_ = INT64_MIN;
+  long good_end_ = 0;  // file offset just past the last whole event
 };
 
 /// What a scan of a whole log finds, without keeping the datagrams.

@@ -1,9 +1,11 @@
 #include "tracking/udp_receiver.h"
 
 #include <arpa/inet.h>
+#include <linux/sock_diag.h>
 #include <netinet/in.h>
 #include <poll.h>
 #include <sys/socket.h>
+#include <sys/uio.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -56,8 +58,23 @@ bool UdpReceiver::Open(const UdpOptions& o, std::string* error) {
   if (fd_ < 0) return fail("cannot create a UDP socket");
   const int one = 1;
   setsockopt(fd_, SOL_SOCKET, SO_REUSEADDR, &one, sizeof(one));
+  if (o.socket_buffer_bytes < 4096 || o.socket_buffer_bytes > (1 << 30))
+    return fail("socket receive buffer " + std::to_string(o.socket_buffer_bytes) + " bytes out of [4096, 2^30]");
   const int rcvbuf = o.socket_buffer_bytes;
   setsockopt(fd_, SOL_SOCKET, SO_RCVBUF, &rcvbuf, sizeof(rcvbuf));
+  {
+    // SO_RCVBUF is capped at net.core.rmem_max; with CAP_NET_ADMIN the cap can be passed
+    int granted = 0;
+    socklen_t glen = sizeof(granted);
+    getsockopt(fd_, SOL_SOCKET, SO_RCVBUF, &granted, &glen);
+    if (granted / 2 < rcvbuf) setsockopt(fd_, SOL_SOCKET, SO_RCVBUFFORCE, &rcvbuf, sizeof(rcvbuf));
+    glen = sizeof(granted);
+    getsockopt(fd_, SOL_SOCKET, SO_RCVBUF, &granted, &glen);
+    rcvbuf_granted_ = granted;
+  }
+  // the kernel counts the datagrams it drops on a full buffer and tells us with each datagram
+  setsockopt(fd_, SOL_SOCKET, SO_RXQ_OVFL, &one, sizeof(one));
+  errno = 0;
   sockaddr_in sa{};
   sa.sin_family = AF_INET;
   sa.sin_port = htons(static_cast<uint16_t>(o.port));
@@ -99,7 +116,15 @@ void UdpReceiver::Start(Callback callback) {
 void UdpReceiver::Stop() {
   stop_ = true;
   if (thread_.joinable()) thread_.join();
-  if (fd_ >= 0) close(fd_);
+  if (fd_ >= 0) {
+    // the datagrams' SO_RXQ_OVFL counts miss drops after the last datagram read: ask the socket itself
+    uint32_t mem[SK_MEMINFO_VARS] = {};
+    socklen_t len = sizeof(mem);
+    if (getsockopt(fd_, SOL_SOCKET, SO_MEMINFO, mem, &len) == 0 && len >= sizeof(uint32_t) * (SK_MEMINFO_DROPS + 1) &&
+        mem[SK_MEMINFO_DROPS] > stats_.kernel_drops.load())
+      stats_.kernel_drops.store(mem[SK_MEMINFO_DROPS]);
+    close(fd_);
+  }
   fd_ = -1;
 }
 
@@ -116,12 +141,26 @@ void UdpReceiver::Loop() {
     // drain everything queued, each datagram stamped as it is read
     for (;;) {
       sockaddr_in from{};
-      socklen_t flen = sizeof(from);
-      const ssize_t n = recvfrom(fd_, buffer.data(), kBufferBytes, MSG_DONTWAIT | MSG_TRUNC,
-                                 reinterpret_cast<sockaddr*>(&from), &flen);
+      iovec iov{buffer.data(), kBufferBytes};
+      alignas(cmsghdr) char control[CMSG_SPACE(sizeof(uint32_t))];
+      msghdr msg{};
+      msg.msg_name = &from;
+      msg.msg_namelen = sizeof(from);
+      msg.msg_iov = &iov;
+      msg.msg_iovlen = 1;
+      msg.msg_control = control;
+      msg.msg_controllen = sizeof(control);
+      const ssize_t n = recvmsg(fd_, &msg, MSG_DONTWAIT | MSG_TRUNC);
       if (n < 0) {
         if (errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR) stats_.socket_errors++;
         break;
+      }
+      for (cmsghdr* c = CMSG_FIRSTHDR(&msg); c; c = CMSG_NXTHDR(&msg, c)) {
+        if (c->cmsg_level == SOL_SOCKET && c->cmsg_type == SO_RXQ_OVFL) {
+          uint32_t dropped = 0;  // the socket's running count
+          std::memcpy(&dropped, CMSG_DATA(c), sizeof(dropped));
+          stats_.kernel_drops.store(dropped, std::memory_order_relaxed);
+        }
       }
       Datagram d;
       d.monotonic_ns = SteadyNanoseconds();

@@ -19,7 +19,7 @@ struct UdpOptions {
   std::string multicast_group;               ///< e.g. "224.0.1.0"; empty: unicast only
   std::vector<std::string> allowed_senders;  ///< IPv4 addresses; empty: any
   std::string controller;                    ///< firewall nudge: "fw4dtsdkc\0" to controller:50107 at start
-  int socket_buffer_bytes = 4 << 20;         ///< SO_RCVBUF asked for (the kernel may give less)
+  int socket_buffer_bytes = 4 << 20;         ///< SO_RCVBUF asked for (beyond net.core.rmem_max only as root)
 };
 
 struct Datagram {
@@ -37,6 +37,9 @@ struct UdpStats {
   std::atomic<uint64_t> rejected_sender{0};
   std::atomic<uint64_t> truncated{0};
   std::atomic<uint64_t> socket_errors{0};
+  /// Datagrams the kernel dropped because the socket's receive buffer was full
+  /// (SO_RXQ_OVFL): they never reached the socket, so no reader could have seen them.
+  std::atomic<uint64_t> kernel_drops{0};
 };
 
 /// Steady-clock nanoseconds (the clock Datagram::monotonic_ns uses).
@@ -60,12 +63,15 @@ class UdpReceiver {
   void Stop();
 
   int port() const { return port_; }
+  /// The receive buffer the kernel granted (Linux reports twice the size asked for).
+  int receive_buffer_bytes() const { return rcvbuf_granted_; }
   const UdpStats& stats() const { return stats_; }
 
  private:
   void Loop();
   int fd_ = -1;
   int port_ = 0;
+  int rcvbuf_granted_ = 0;
   std::vector<uint32_t> allowed_;  // network byte order
   Callback callback_;
   std::thread thread_;
