@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <cstdio>
 #include <memory>
 #include <string>
 #include <vector>
@@ -57,6 +58,10 @@ struct SessionReadStats {
 };
 
 /// Reads a session log one datagram at a time (sessions can be longer than memory).
+/// Its own reader of the LCM log format (LCM's reader and lcm-gen's decoders trust
+/// the lengths in the file): every length is checked against what the file holds,
+/// so a damaged or hostile log gives an error naming the byte offset, never an
+/// unbounded allocation or an out-of-bounds read.
 class SessionReader {
  public:
   SessionReader();
@@ -68,11 +73,13 @@ class SessionReader {
   const SessionReadStats& stats() const { return stats_; }
 
  private:
-  std::unique_ptr<lcm::LogFile> log_;
+  bool Fail(const std::string& what);
+  std::FILE* file_ = nullptr;
+  uint64_t file_size_ = 0, offset_ = 0;  // offset_: just past the last whole event
   std::string path_, error_;
   SessionReadStats stats_;
   int64_t last_ = INT64_MIN;
-  long good_end_ = 0;  // file offset just past the last whole event
+  std::vector<uint8_t> channel_, event_;
 };
 
 /// What a scan of a whole log finds, without keeping the datagrams.

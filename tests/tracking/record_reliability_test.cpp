@@ -162,6 +162,74 @@ TEST(RecordReliability, KilledRecordingIsReadableToItsLastWholeEventAndReplays) 
   std::filesystem::remove_all(dir);
 }
 
+// a log of two datagrams, with its bytes then damaged at chosen places
+class DamagedLog : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = test::TempDir("damaged");
+    SessionWriter w;
+    std::string error;
+    ASSERT_TRUE(w.Open(dir_ + "/ok.lcmlog", &error)) << error;
+    const std::string packet = Packet();
+    for (int k = 0; k < 2; ++k) {
+      Datagram d;
+      d.data = packet.data();
+      d.size = packet.size();
+      d.sequence = static_cast<uint64_t>(k);
+      d.monotonic_ns = 1000000 * k;
+      std::snprintf(d.source, sizeof(d.source), "127.0.0.1:5000");
+      ASSERT_TRUE(w.Write(d));
+    }
+    w.Close();
+    bytes_ = test::ReadFile(dir_ + "/ok.lcmlog");
+  }
+  void TearDown() override { std::filesystem::remove_all(dir_); }
+  // writes the log with `n` big-endian bytes of `value` at `offset`, and reads it
+  LogCount With(size_t offset, uint64_t value, int n) {
+    std::string b = bytes_;
+    for (int k = 0; k < n; ++k) b[offset + k] = static_cast<char>(value >> (8 * (n - 1 - k)));
+    const std::string path = dir_ + "/bad.lcmlog";
+    std::ofstream(path, std::ios::binary) << b;
+    return CountLog(path);
+  }
+  // event 1: 28-byte header, the 10-byte channel, then the message: type hash, three int64, source length
+  static constexpr size_t kDataLen = 24, kMessage = 38, kSourceLen = 38 + 32;
+  std::string dir_, bytes_;
+};
+
+TEST_F(DamagedLog, IntactReadsBoth) { EXPECT_EQ(CountLog(dir_ + "/ok.lcmlog").datagrams, 2u); }
+
+TEST_F(DamagedLog, HugeDataLengthIsACutShortLogNotAnAllocation) {
+  const LogCount c = With(kDataLen, 0x7fffffff, 4);
+  EXPECT_EQ(c.datagrams, 0u);
+  EXPECT_EQ(c.stats.trailing_bytes, bytes_.size());
+}
+
+TEST_F(DamagedLog, NegativeDataLengthIsRefusedWithItsOffset) {
+  const LogCount c = With(kDataLen, 0xffffffff, 4);
+  EXPECT_NE(c.error.find("byte 0: event with a channel name of 10 bytes and -1 bytes"), std::string::npos) << c.error;
+}
+
+TEST_F(DamagedLog, BadSourceLengthsAreRefused) {
+  for (uint64_t len : {0ull, 0xffffffffull, 0x7fffffffull}) {
+    const LogCount c = With(kSourceLen, len, 4);
+    EXPECT_NE(c.error.find("event 1 on DTRACK_RAW has a source address of a bad length"), std::string::npos)
+        << len << ": " << c.error;
+  }
+}
+
+TEST_F(DamagedLog, OtherTypeIsRefused) {
+  const LogCount c = With(kMessage, 0x0123456789abcdefull, 8);
+  EXPECT_NE(c.error.find("is not a graspsim.dtrack_datagram_t"), std::string::npos) << c.error;
+}
+
+TEST_F(DamagedLog, GarbageBetweenEventsNamesItsOffset) {
+  const size_t second = bytes_.size() / 2;  // both events have the same length
+  const LogCount c = With(second, 0xdeadbeef, 4);
+  EXPECT_EQ(c.datagrams, 1u);
+  EXPECT_NE(c.error.find("byte " + std::to_string(second) + ": no LCM event starts here"), std::string::npos) << c.error;
+}
+
 TEST(Signals, RecordEndsCleanlyOnSigint) {
   const std::string dir = test::TempDir("sig_record");
   const std::string log = dir + "/s.lcmlog", out = dir + "/record.txt";
