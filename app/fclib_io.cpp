@@ -175,7 +175,8 @@ bool ReadFclibLocal(const std::string& path, FcProblem* out, std::string* error)
     trip.emplace_back(static_cast<int>(row), static_cast<int>(col), x);
   };
   if (M.nz >= 0) {
-    for (int k = 0; k < M.nz && bad.empty(); ++k) add(M.p[k], M.i[k], M.x[k]);
+    // triplets as in CSparse: row i[k], column p[k]
+    for (int k = 0; k < M.nz && bad.empty(); ++k) add(M.i[k], M.p[k], M.x[k]);
   } else {
     const int outer = M.nz == -1 ? M.n : M.m;
     for (int o = 0; o < outer && bad.empty(); ++o) {

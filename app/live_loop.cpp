@@ -206,6 +206,7 @@ bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::str
   snap.Reserve(w.bodies.size(), cfg.fingertips.size(), static_cast<size_t>(w.params.max_contacts));
   // the mailbox's buffers get their capacity before the loop, so the loop never allocates
   snapshots.Fill(snap);
+  Snapshot pub = snap;  // the publisher's copy, sized before the simulation thread starts writing `snap`
   std::atomic<bool> stop{false};
   std::atomic<int64_t> steps{0}, overruns{0}, skipped{0}, applied{0};
   std::atomic<double> last_step_ms{0.0};
@@ -275,7 +276,6 @@ bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::str
   const int64_t t0 = SteadyNanoseconds();
   int64_t last_status = t0;
   uint64_t last_datagrams = 0;
-  Snapshot pub = snap;
   while (!StopRequested()) {
     std::this_thread::sleep_for(std::chrono::milliseconds(publish_every ? std::max(1, static_cast<int>(500 / std::max(1.0, opt.publish_rate))) : 20));
     const int64_t now = SteadyNanoseconds();

@@ -1,11 +1,20 @@
 #include "app/mesh_import.h"
 
+#include <poll.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 
 #include <algorithm>
 #include <assimp/Importer.hpp>
+#include <cerrno>
+#include <chrono>
 #include <cmath>
+#include <cstdio>
+#include <cstring>
 #include <exception>
 #include <filesystem>
 #include <system_error>
@@ -120,37 +129,9 @@ std::string Describe(EMeshError e, const MeshCheckReport& r) {
   return ToString(e);
 }
 
-bool Import(const std::string& path, double scale, TriangleMesh* out, std::string* why, size_t max_triangles) {
-  if (!std::isfinite(scale) || !(scale > 0)) {
-    *why = "scale must be positive and finite (got " + std::to_string(scale) + ")";
-    return false;
-  }
-
-  // the file itself
-  std::error_code ec;
-  const std::filesystem::path fs_path(path);
-  if (!std::filesystem::exists(fs_path, ec)) {
-    *why = "file not found";
-    return false;
-  }
-  if (!std::filesystem::is_regular_file(fs_path, ec)) {
-    *why = "not a regular file";
-    return false;
-  }
-  const uintmax_t bytes = std::filesystem::file_size(fs_path, ec);
-  if (ec) {
-    *why = "cannot read: " + ec.message();
-    return false;
-  }
-  if (bytes == 0) {
-    *why = "empty file (0 bytes)";
-    return false;
-  }
-  if (bytes > kMaxFileBytes) {
-    *why = "file too large (" + std::to_string(bytes) + " bytes; at most " + std::to_string(kMaxFileBytes) + ")";
-    return false;
-  }
-
+// assimp's part: read the file, flatten every placed mesh into one triangle soup
+bool Parse(const std::string& path, double scale, size_t max_triangles, std::vector<Vec3>* raw_out,
+           std::vector<Eigen::Vector3i>* tris_out, std::string* why) {
   // parse
   Assimp::Importer importer;
   const aiScene* scene = importer.ReadFile(path, aiProcess_Triangulate | aiProcess_JoinIdenticalVertices);
@@ -183,8 +164,8 @@ bool Import(const std::string& path, double scale, TriangleMesh* out, std::strin
   }
 
   // merge all instances; a mirroring transform reverses the winding
-  std::vector<Vec3> raw;
-  std::vector<Eigen::Vector3i> tris;
+  std::vector<Vec3>& raw = *raw_out;
+  std::vector<Eigen::Vector3i>& tris = *tris_out;
   raw.reserve(n_verts);
   tris.reserve(n_tris);
   for (const Instance& in : instances) {
@@ -213,6 +194,154 @@ bool Import(const std::string& path, double scale, TriangleMesh* out, std::strin
       tris.push_back(t);
     }
   }
+  return true;
+}
+
+// Runs Parse in a child process: assimp hangs or crashes on some malformed files
+// (its PLY reader can loop forever at the end of a truncated file), and a lab's
+// program must refuse such a file with a message, not hang or die. The child
+// sends the triangle soup back through a pipe; the parent waits at most `timeout_s`.
+bool ParseIsolated(const std::string& path, double scale, size_t max_triangles, double timeout_s,
+                   std::vector<Vec3>* raw, std::vector<Eigen::Vector3i>* tris, std::string* why) {
+  int fds[2];
+  if (pipe(fds) != 0) return Parse(path, scale, max_triangles, raw, tris, why);
+  std::fflush(nullptr);
+  const pid_t pid = fork();
+  if (pid < 0) {
+    close(fds[0]);
+    close(fds[1]);
+    return Parse(path, scale, max_triangles, raw, tris, why);
+  }
+  if (pid == 0) {
+    // the child: parse, write [ok byte][error or counts and arrays], and leave without cleanup
+    close(fds[0]);
+    std::string msg;
+    bool ok = false;
+    try {
+      ok = Parse(path, scale, max_triangles, raw, tris, &msg);
+    } catch (const std::exception& ex) {
+      msg = std::string("import failed: ") + ex.what();
+    } catch (...) {
+      msg = "import failed: unknown exception";
+    }
+    auto put = [&](const void* p, size_t n) {
+      const char* c = static_cast<const char*>(p);
+      while (n) {
+        const ssize_t w = write(fds[1], c, n);
+        if (w <= 0) _exit(3);
+        c += w;
+        n -= static_cast<size_t>(w);
+      }
+    };
+    const uint8_t flag = ok ? 1 : 0;
+    put(&flag, 1);
+    if (!ok) {
+      put(msg.data(), msg.size());
+    } else {
+      const uint64_t counts[2] = {raw->size(), tris->size()};
+      put(counts, sizeof(counts));
+      put(raw->data(), raw->size() * sizeof(Vec3));
+      put(tris->data(), tris->size() * sizeof(Eigen::Vector3i));
+    }
+    _exit(0);
+  }
+  close(fds[1]);
+  std::string data;
+  char buf[1 << 16];
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+  bool timed_out = false;
+  for (;;) {
+    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
+    if (left.count() <= 0) {
+      timed_out = true;
+      break;
+    }
+    pollfd pfd{fds[0], POLLIN, 0};
+    const int r = poll(&pfd, 1, static_cast<int>(std::min<int64_t>(left.count(), 1000)));
+    if (r < 0 && errno != EINTR) break;
+    if (r <= 0) continue;
+    const ssize_t n = read(fds[0], buf, sizeof(buf));
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) break;
+    data.append(buf, static_cast<size_t>(n));
+  }
+  close(fds[0]);
+  if (timed_out) kill(pid, SIGKILL);
+  int status = 0;
+  while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  }
+  if (timed_out) {
+    char t[64];
+    std::snprintf(t, sizeof(t), "%g", timeout_s);
+    *why = std::string("the importer did not finish within ") + t + " s (malformed file?)";
+    return false;
+  }
+  if (WIFSIGNALED(status)) {
+    *why = "the importer crashed on this file (signal " + std::to_string(WTERMSIG(status)) + ")";
+    return false;
+  }
+  if (data.empty() || !WIFEXITED(status) || WEXITSTATUS(status) != 0) {
+    *why = "the importer failed (exit status " + std::to_string(WIFEXITED(status) ? WEXITSTATUS(status) : -1) + ")";
+    return false;
+  }
+  if (data[0] != 1) {
+    *why = data.substr(1);
+    return false;
+  }
+  uint64_t counts[2] = {0, 0};
+  if (data.size() < 1 + sizeof(counts)) {
+    *why = "the importer's answer was cut short";
+    return false;
+  }
+  std::memcpy(counts, data.data() + 1, sizeof(counts));
+  const size_t need = 1 + sizeof(counts) + counts[0] * sizeof(Vec3) + counts[1] * sizeof(Eigen::Vector3i);
+  if (counts[0] > 3 * max_triangles + 3 || counts[1] > max_triangles || data.size() != need) {
+    *why = "the importer's answer was inconsistent";
+    return false;
+  }
+  raw->resize(counts[0]);
+  tris->resize(counts[1]);
+  const char* at = data.data() + 1 + sizeof(counts);
+  std::memcpy(static_cast<void*>(raw->data()), at, counts[0] * sizeof(Vec3));
+  std::memcpy(static_cast<void*>(tris->data()), at + counts[0] * sizeof(Vec3), counts[1] * sizeof(Eigen::Vector3i));
+  return true;
+}
+
+bool Import(const std::string& path, double scale, TriangleMesh* out, std::string* why, size_t max_triangles,
+            double timeout_s) {
+  if (!std::isfinite(scale) || !(scale > 0)) {
+    *why = "scale must be positive and finite (got " + std::to_string(scale) + ")";
+    return false;
+  }
+
+  // the file itself
+  std::error_code ec;
+  const std::filesystem::path fs_path(path);
+  if (!std::filesystem::exists(fs_path, ec)) {
+    *why = "file not found";
+    return false;
+  }
+  if (!std::filesystem::is_regular_file(fs_path, ec)) {
+    *why = "not a regular file";
+    return false;
+  }
+  const uintmax_t bytes = std::filesystem::file_size(fs_path, ec);
+  if (ec) {
+    *why = "cannot read: " + ec.message();
+    return false;
+  }
+  if (bytes == 0) {
+    *why = "empty file (0 bytes)";
+    return false;
+  }
+  if (bytes > kMaxFileBytes) {
+    *why = "file too large (" + std::to_string(bytes) + " bytes; at most " + std::to_string(kMaxFileBytes) + ")";
+    return false;
+  }
+
+  std::vector<Vec3> raw;
+  std::vector<Eigen::Vector3i> tris;
+  if (!ParseIsolated(path, scale, max_triangles, timeout_s, &raw, &tris, why)) return false;
   size_t bad = 0;
   for (const Vec3& p : raw) bad += !p.allFinite();
   if (bad) {
@@ -247,12 +376,12 @@ bool Import(const std::string& path, double scale, TriangleMesh* out, std::strin
 }  // namespace
 
 bool ImportMesh(const std::string& path, double scale, gs::TriangleMesh* out, std::string* error,
-                size_t max_triangles) {
+                size_t max_triangles, double timeout_s) {
   std::string why;
   bool ok = false;
   TriangleMesh mesh;
   try {
-    ok = Import(path, scale, &mesh, &why, max_triangles);
+    ok = Import(path, scale, &mesh, &why, max_triangles, timeout_s);
   } catch (const std::exception& ex) {
     why = std::string("import failed: ") + ex.what();
     ok = false;

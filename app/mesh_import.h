@@ -20,7 +20,10 @@ constexpr size_t kMaxImportTriangles = 5000000;
 /// On failure returns false, leaves `out` empty and sets `error` (may be null) to a
 /// message naming the file and the problem, e.g.
 /// "mesh 'x.stl': open surface: 3 boundary edges (a closed surface is required)".
+///
+/// assimp runs in a child process: a file on which it crashes or that it has not
+/// read within `timeout_s` seconds is refused with a message saying so.
 bool ImportMesh(const std::string& path, double scale, gs::TriangleMesh* out, std::string* error,
-                size_t max_triangles = kMaxImportTriangles);
+                size_t max_triangles = kMaxImportTriangles, double timeout_s = 60.0);
 
 }  // namespace gs::app

@@ -381,7 +381,8 @@ bool Parse(const YAML::Node& root, const std::string& file, Scene* s, std::vecto
       if (!fingers.count(n)) errors->push_back({file, 0, 0, "script names an unknown finger '" + n + "'"});
     for (const auto& [n, q] : k.tip_targets)
       if (!fingers.count(n)) errors->push_back({file, 0, 0, "script names an unknown finger '" + n + "'"});
-    for (const auto& [n, p] : k.body_targets) {
+    for (const auto& target : k.body_targets) {
+      const std::string& n = target.first;  // a plain name: clang cannot capture structured bindings in C++17
       auto it = std::find_if(s->bodies.begin(), s->bodies.end(), [&](const SceneBody& b) { return b.spec.name == n; });
       if (it == s->bodies.end())
         errors->push_back({file, 0, 0, "script names an unknown body '" + n + "'"});

@@ -1,14 +1,22 @@
 #!/usr/bin/env bash
-# Sets up, builds and runs the whole test suite: the release build, then the
-# sanitizer builds of the unit and integration tests.
+# Sets up, builds and runs the whole test suite: the release build (with the
+# fuzz targets), the ASan+UBSan build of every test, and the ThreadSanitizer
+# build of the threaded tests (label "threads": receiver, mailbox, live, record).
 # GRASPSIM_TEST_PRESETS overrides the list, e.g. GRASPSIM_TEST_PRESETS=release.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh
-presets="${GRASPSIM_TEST_PRESETS:-release asan}"
+presets="${GRASPSIM_TEST_PRESETS:-release asan tsan}"
 jobs="$(nproc)"
 for preset in $presets; do
   echo "=== $preset ==="
-  scripts/build.sh "$preset"
-  ctest --preset "$preset" -j "$jobs"
+  start=$SECONDS
+  if [ "$preset" = tsan ]; then
+    scripts/build.sh tsan --target graspsim tracking_tests
+    ctest --preset tsan -j "$jobs" -L threads
+  else
+    scripts/build.sh "$preset"
+    ctest --preset "$preset" -j "$jobs"
+  fi
+  echo "=== $preset: $((SECONDS - start)) s ==="
 done
