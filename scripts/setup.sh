@@ -15,6 +15,8 @@ packages=(
 # optional extras: the Siconos side-by-side benchmark, video output and plots
 if [ "${GRASPSIM_SETUP_MINIMAL:-0}" != 1 ]; then
   packages+=(libsiconos-numerics-dev)
+  # the mesh import test walks every model of assimp's own test suite
+  packages+=(assimp-testmodels)
 fi
 
 missing=()
