@@ -69,13 +69,22 @@ int Live(const LiveCmd& c) {
               static_cast<unsigned long long>(st.samples_applied), FormatParseErrors(st.parse).c_str(),
               static_cast<unsigned long long>(st.rejected_senders), static_cast<unsigned long long>(st.published));
   if (st.parse.TotalErrors()) std::printf("live: last parse error: %s\n", st.last_parse_error.c_str());
+  const tracking::HealthCounts& h = st.health;
+  std::printf("live: tracker events: %d silences, %d recoveries, %d rate changes, %d garbage bursts, %d floods, %d "
+              "bursts from senders outside the allow list; tracker %s at the end\n",
+              h.silences, h.recoveries, h.rate_changes, h.garbage_bursts, h.floods, h.rejected_bursts,
+              st.tracker_state.c_str());
   std::printf("{\"live\":true,\"wall_s\":%.6f,\"steps\":%lld,\"sim_rate_hz\":%.3f,\"target_rate_hz\":%.3f,"
               "\"overruns\":%lld,\"skipped_steps\":%lld,\"step_median_ms\":%.4f,\"step_max_ms\":%.4f,"
-              "\"datagrams\":%llu,\"tracker_hz\":%.4f,\"parse_errors\":%llu,\"published\":%llu,\"lcm_ok\":%s}\n",
+              "\"datagrams\":%llu,\"tracker_hz\":%.4f,\"parse_errors\":%llu,\"rejected_senders\":%llu,"
+              "\"silences\":%d,\"recoveries\":%d,\"rate_changes\":%d,\"garbage_bursts\":%d,\"floods\":%d,"
+              "\"rejected_bursts\":%d,\"tracker_state\":\"%s\",\"published\":%llu,\"lcm_ok\":%s}\n",
               st.wall_s, static_cast<long long>(st.steps), st.sim_rate_hz(), 1.0 / w.params.dt,
               static_cast<long long>(st.overruns), static_cast<long long>(st.skipped_steps), st.step_median_ms,
               st.step_max_ms, static_cast<unsigned long long>(st.datagrams), st.tracker_hz,
-              static_cast<unsigned long long>(st.parse.TotalErrors()), static_cast<unsigned long long>(st.published),
+              static_cast<unsigned long long>(st.parse.TotalErrors()), static_cast<unsigned long long>(st.rejected_senders),
+              h.silences, h.recoveries, h.rate_changes, h.garbage_bursts, h.floods, h.rejected_bursts,
+              st.tracker_state.c_str(), static_cast<unsigned long long>(st.published),
               st.lcm_ok ? "true" : "false");
   return kExitOk;
 }

@@ -14,6 +14,7 @@
 #include "graspsim/poses_t.hpp"
 #include "tracking/mailbox.h"
 #include "tracking/session_log.h"
+#include "tracking/tracker_health.h"
 
 namespace gs::app {
 namespace {
@@ -173,7 +174,7 @@ bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::str
   tracking::LatestMailbox<tracking::TargetSample> samples;
   tracking::DTrackParser parser;
   tracking::DTrackFrame frame;
-  std::atomic<uint64_t> datagrams{0}, parse_errors{0};
+  std::atomic<uint64_t> datagrams{0}, parse_errors{0}, bad_datagrams{0};
   std::atomic<int64_t> first_ns{-1}, last_ns{-1};
   tracking::TargetSample rx_sample;
   rx.Start([&](const tracking::Datagram& d) {
@@ -193,6 +194,7 @@ bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::str
     if (first_ns.load(std::memory_order_relaxed) < 0) first_ns = d.monotonic_ns;
     last_ns = d.monotonic_ns;
     parse_errors = parser.stats().TotalErrors();
+    if (errors > 0) bad_datagrams.fetch_add(1);
     datagrams.fetch_add(1);
   });
 
@@ -276,18 +278,41 @@ bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::str
   const int64_t t0 = SteadyNanoseconds();
   int64_t last_status = t0;
   uint64_t last_datagrams = 0;
+  // the tracker's health, judged from the receiver's counters; events are printed as they happen
+  tracking::HealthOptions ho;
+  ho.silent_after_s = opt.silent_after_s;
+  tracking::TrackerHealth health(ho);
+  health.Start(start_ns);
+  tracking::HealthEvent events[tracking::TrackerHealth::kMaxEvents];
+  bool status_pending = false;  // a tty status line without its newline
   while (!StopRequested()) {
     std::this_thread::sleep_for(std::chrono::milliseconds(publish_every ? std::max(1, static_cast<int>(500 / std::max(1.0, opt.publish_rate))) : 20));
     const int64_t now = SteadyNanoseconds();
     if (lc && stats->lcm_ok && snapshots.Read(&pub)) stats->published += Publish(*lc, w, cfg, pub);
     if (opt.duration > 0 && now - start_ns >= static_cast<int64_t>(opt.duration * 1e9)) break;
+    tracking::HealthCounters hc;
+    hc.now_ns = now;
+    hc.last_arrival_ns = last_ns.load();  // before the counts: a datagram counted is never newer than it
+    hc.datagrams = datagrams.load();
+    hc.bad_datagrams = bad_datagrams.load();
+    hc.rejected = rx.stats().rejected_sender.load();
+    hc.last_rejected_addr = rx.stats().last_rejected_addr.load();
+    const int ne = health.Update(hc, events);
+    for (int i = 0; i < ne; ++i) {
+      if (opt.quiet) continue;
+      std::printf("%slive: t=%.2f s: %s\n", status_pending ? "\n" : "", events[i].t_s, events[i].text);
+      status_pending = false;
+    }
+    if (ne && !opt.quiet) std::fflush(stdout);
     const double since = 1e-9 * static_cast<double>(now - last_status);
     if (opt.status && !opt.quiet && since >= (tty ? 0.25 : 5.0)) {
       const uint64_t n = datagrams.load();
-      std::printf("%s  t=%7.2f s  tracker %6.1f Hz  parse errors %llu  step %.3f ms  overruns %lld  skipped %lld%s",
-                  tty ? "\r" : "", 1e-9 * static_cast<double>(now - start_ns), static_cast<double>(n - last_datagrams) / since,
-                  static_cast<unsigned long long>(parse_errors.load()), last_step_ms.load(),
+      std::printf("%s  t=%7.2f s  tracker %-9s %6.1f Hz  parse errors %llu  rejected %llu  step %.3f ms  overruns %lld  skipped %lld%s",
+                  tty ? "\r" : "", 1e-9 * static_cast<double>(now - start_ns), health.state(),
+                  static_cast<double>(n - last_datagrams) / since, static_cast<unsigned long long>(parse_errors.load()),
+                  static_cast<unsigned long long>(hc.rejected), last_step_ms.load(),
                   static_cast<long long>(overruns.load()), static_cast<long long>(skipped.load()), tty ? "   " : "\n");
+      status_pending = tty;
       std::fflush(stdout);
       last_status = now;
       last_datagrams = n;
@@ -297,7 +322,9 @@ bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::str
   const int64_t stop_ns = SteadyNanoseconds();
   sim_thread.join();
   rx.Stop();
-  if (tty) std::printf("\n");
+  if (status_pending) std::printf("\n");
+  stats->health = health.counts();
+  stats->tracker_state = health.state();
   stats->wall_s = 1e-9 * static_cast<double>(stop_ns - start_ns);
   stats->steps = steps.load();
   stats->overruns = overruns.load();

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "app/tracked_sim.h"
+#include "tracking/tracker_health.h"
 #include "tracking/udp_receiver.h"
 
 namespace gs::app {
@@ -23,7 +24,8 @@ struct LiveOptions {
   double publish_rate = 100.0;  ///< Hz; 0: no publishing
   std::string lcm_url;          ///< empty: LCM's default
   bool status = true;           ///< status line (on a terminal: one updated line; otherwise a line every 5 s)
-  bool quiet = false;
+  bool quiet = false;           ///< neither the status line nor tracker events
+  double silent_after_s = 0.25; ///< no datagram this long: the tracker is reported silent
 };
 
 struct LiveStats {
@@ -38,6 +40,8 @@ struct LiveStats {
   tracking::ParseStats parse;
   std::string last_parse_error;  ///< "line 3 (6d): object 1: ..." when there were errors
   uint64_t rejected_senders = 0;
+  tracking::HealthCounts health;  ///< tracker events seen (silences, floods, ...)
+  std::string tracker_state;      ///< at the end: ok, silent, flood, ...
   uint64_t published = 0;       ///< LCM messages (poses + contacts)
   bool lcm_ok = false;
   /// per applied sample: steps from the step in progress at its arrival to the

@@ -169,6 +169,7 @@ void UdpReceiver::Loop() {
         bool ok = false;
         for (uint32_t a : allowed_) ok = ok || a == from.sin_addr.s_addr;
         if (!ok) {
+          stats_.last_rejected_addr.store(from.sin_addr.s_addr, std::memory_order_relaxed);
           stats_.rejected_sender++;
           continue;
         }

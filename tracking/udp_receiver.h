@@ -35,6 +35,7 @@ struct Datagram {
 struct UdpStats {
   std::atomic<uint64_t> received{0};
   std::atomic<uint64_t> rejected_sender{0};
+  std::atomic<uint32_t> last_rejected_addr{0};  ///< IPv4, network byte order
   std::atomic<uint64_t> truncated{0};
   std::atomic<uint64_t> socket_errors{0};
   /// Datagrams the kernel dropped because the socket's receive buffer was full
