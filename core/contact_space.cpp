@@ -60,13 +60,33 @@ void BuildContactSpace(World& w) {
       side.articulation = b.articulation;
       side.count = 0;
       side.inf_begin = side.inf_count = 0;
+      // eq. 8 weights of the contact point over the control points (deformable bodies):
+      // the query side's contact point is the control point itself
+      if (b.deform.enabled()) {
+        if (s == 0) {
+          side.count = 1;
+          side.idx[0] = c.leaf;
+          side.w[0] = 1.0;
+        } else if (c.surface_leaf >= 0) {
+          side.count = b.deform.Interpolate(c.anchor[1], c.surface_leaf, side.idx, side.w, ContactSide::kMaxWeights);
+        }
+      }
       if (b.articulation < 0) continue;
       const Articulation& a = w.articulations[b.articulation];
+      // The body's rotation over the step turns the material point where it is, which
+      // on a deformable body is the rest anchor displaced by u: the lever arm of the
+      // Jacobian ends at the displaced point. With the arm to the rest anchor instead, a
+      // contact torque that turns a fingertip by dtheta per step moves its squashed
+      // contact points by dtheta x R u more than the solver thinks (0.2 um per step in
+      // the pinch with u = 0.8 mm): a grasp the solver holds in sticking friction creeps.
+      // u is the last step's displacement, which the step's stays close to; the error left
+      // is dtheta x (u_new - u), zero in a steady hold.
+      const Vec3 lever_pt = side.count > 0 ? b.pose.Apply(c.anchor[s] + SideDisplacement(side, b.u)) : world_pt[s];
       Eigen::Matrix<double, 3, 6> J = Eigen::Matrix<double, 3, 6>::Zero();
       if (a.finger >= 0) {
-        J.leftCols<4>() = FingerPointJacobian(w.hand.fingers[a.finger].kin, world_pt[s]);
+        J.leftCols<4>() = FingerPointJacobian(w.hand.fingers[a.finger].kin, lever_pt);
       } else {
-        J = FreeBodyJacobian(world_pt[s], b.pose.t);
+        J = FreeBodyJacobian(lever_pt, b.pose.t);
       }
       side.h = side.sign * row.frame * J;
       row.w_diag += side.h * a.a_inv * side.h.transpose();
@@ -88,16 +108,7 @@ void BuildContactSpace(World& w) {
     for (int s = 0; s < 2; ++s) {
       Body& b = w.bodies[c.body[s]];
       ContactSide& side = row.side[s];
-      if (!b.deform.enabled()) continue;
-      if (s == 0) {
-        // the query side's contact point is the control point itself
-        side.count = 1;
-        side.idx[0] = c.leaf;
-        side.w[0] = 1.0;
-      } else {
-        if (c.surface_leaf < 0) continue;
-        side.count = b.deform.Interpolate(c.anchor[1], c.surface_leaf, side.idx, side.w, ContactSide::kMaxWeights);
-      }
+      if (!b.deform.enabled() || side.count == 0) continue;  // weights set with the rigid part
       const int begin = static_cast<int>(w.side_inf_idx.size());
       for (int k = 0; k < side.count; ++k) {
         const int* idx;
