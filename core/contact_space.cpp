@@ -55,8 +55,6 @@ void BuildContactSpace(World& w) {
       side.body = c.body[s];
       side.sign = s == 0 ? 1.0 : -1.0;
       world_pt[s] = b.pose.Apply(c.anchor[s]);
-      // free motion of the material point over the step
-      slip += side.sign * (world_pt[s] - b.pose_prev.Apply(c.anchor[s]));
       side.articulation = b.articulation;
       side.count = 0;
       side.inf_begin = side.inf_count = 0;
@@ -71,23 +69,41 @@ void BuildContactSpace(World& w) {
           side.count = b.deform.Interpolate(c.anchor[1], c.surface_leaf, side.idx, side.w, ContactSide::kMaxWeights);
         }
       }
-      if (b.articulation < 0) continue;
+      // The material point: on a deformable body, the rest anchor displaced by u. The
+      // body's rotation turns it where it is, so the Jacobian's lever arm ends there. With
+      // the arm to the rest anchor instead, a contact torque that turns a fingertip by
+      // dtheta per step moves its squashed contact points by dtheta x R u unseen by the
+      // solver (0.2 um per step in the pinch, u = 0.8 mm): a grasp the solver holds in
+      // sticking friction creeps. u is the last step's displacement, which this step's
+      // stays close to; what is left, dtheta x (u_new - u), vanishes in a steady hold.
+      const Vec3 x = side.count > 0 ? Vec3(c.anchor[s] + SideDisplacement(side, b.u)) : c.anchor[s];
+      const Vec3 lever_pt = b.pose.Apply(x);
+      if (b.articulation < 0) {
+        // fixed or kinematic: its prescribed motion over the step
+        slip += side.sign * (lever_pt - b.pose_prev.Apply(x));
+        continue;
+      }
       const Articulation& a = w.articulations[b.articulation];
-      // The body's rotation over the step turns the material point where it is, which
-      // on a deformable body is the rest anchor displaced by u: the lever arm of the
-      // Jacobian ends at the displaced point. With the arm to the rest anchor instead, a
-      // contact torque that turns a fingertip by dtheta per step moves its squashed
-      // contact points by dtheta x R u more than the solver thinks (0.2 um per step in
-      // the pinch with u = 0.8 mm): a grasp the solver holds in sticking friction creeps.
-      // u is the last step's displacement, which the step's stays close to; the error left
-      // is dtheta x (u_new - u), zero in a steady hold.
-      const Vec3 lever_pt = side.count > 0 ? b.pose.Apply(c.anchor[s] + SideDisplacement(side, b.u)) : world_pt[s];
       Eigen::Matrix<double, 3, 6> J = Eigen::Matrix<double, 3, 6>::Zero();
+      Vec3 carried = Vec3::Zero();
       if (a.finger >= 0) {
         J.leftCols<4>() = FingerPointJacobian(w.hand.fingers[a.finger].kin, lever_pt);
+        // the hand's own (prescribed) motion carries the finger
+        carried = lever_pt - w.hand.pose_prev.Apply(w.hand.pose.ApplyInverse(lever_pt));
       } else {
         J = FreeBodyJacobian(lever_pt, b.pose.t);
       }
+      // Free slip of the material point, linearised where the contact response is (at
+      // the free-motion configuration): J dq_free, not the finite difference
+      // x(q_free) - x(q_prev). The step ends at q_free + dq with the solver taking that
+      // as J (dq_free + dq); the finite difference would add the curvature term
+      // 1/2 dq_free^T H dq_free, which does not vanish when the motor's pull (dq_free)
+      // and the contact's push (dq) cancel in a steady hold: a finger pressing with
+      // 2.6e-3 rad of free motion per step made the paper's box slide 0.8 mm/s in
+      // what the solver took for sticking contacts. Linearised, the error is
+      // dq_total^T H dq_free, zero when the hold is steady. The gap stays the
+      // position-level one from collision detection (its error is not integrated).
+      slip += side.sign * (carried + J * a.dq_free);
       side.h = side.sign * row.frame * J;
       row.w_diag += side.h * a.a_inv * side.h.transpose();
     }
@@ -132,8 +148,9 @@ void BuildContactSpace(World& w) {
       side.inf_count = end - begin;
       row.w_diag += k * Mat3::Identity();  // isotropic kernel: frame R R^T frame^T = I
       const Vec3 uf = b.pose.Rotate(SideDisplacement(side, b.u_free));
-      const Vec3 up = b.pose_prev.Rotate(SideDisplacement(side, b.u));
+      const Vec3 up = b.pose.Rotate(SideDisplacement(side, b.u));
       gap_def += side.sign * c.normal.dot(uf);
+      // the rigid motion of the displaced point is in the rigid part (J at anchor + u)
       slip_def += side.sign * (uf - up);
     }
     // normal: position-level gap after free motion (eq. 6); tangents: free slip over the step
