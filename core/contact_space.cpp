@@ -55,19 +55,55 @@ void BuildContactSpace(World& w) {
       side.body = c.body[s];
       side.sign = s == 0 ? 1.0 : -1.0;
       world_pt[s] = b.pose.Apply(c.anchor[s]);
-      // free motion of the material point over the step
-      slip += side.sign * (world_pt[s] - b.pose_prev.Apply(c.anchor[s]));
       side.articulation = b.articulation;
       side.count = 0;
       side.inf_begin = side.inf_count = 0;
-      if (b.articulation < 0) continue;
+      // eq. 8 weights of the contact point over the control points (deformable bodies):
+      // the query side's contact point is the control point itself
+      if (b.deform.enabled()) {
+        if (s == 0) {
+          side.count = 1;
+          side.idx[0] = c.leaf;
+          side.w[0] = 1.0;
+        } else if (c.surface_leaf >= 0) {
+          side.count = b.deform.Interpolate(c.anchor[1], c.surface_leaf, side.idx, side.w, ContactSide::kMaxWeights);
+        }
+      }
+      // The material point: on a deformable body, the rest anchor displaced by u. The
+      // body's rotation turns it where it is, so the Jacobian's lever arm ends there. With
+      // the arm to the rest anchor instead, a contact torque that turns a fingertip by
+      // dtheta per step moves its squashed contact points by dtheta x R u unseen by the
+      // solver (0.2 um per step in the pinch, u = 0.8 mm): a grasp the solver holds in
+      // sticking friction creeps. u is the last step's displacement, which this step's
+      // stays close to; what is left, dtheta x (u_new - u), vanishes in a steady hold.
+      const Vec3 x = side.count > 0 ? Vec3(c.anchor[s] + SideDisplacement(side, b.u)) : c.anchor[s];
+      const Vec3 lever_pt = b.pose.Apply(x);
+      if (b.articulation < 0) {
+        // fixed or kinematic: its prescribed motion over the step
+        slip += side.sign * (lever_pt - b.pose_prev.Apply(x));
+        continue;
+      }
       const Articulation& a = w.articulations[b.articulation];
       Eigen::Matrix<double, 3, 6> J = Eigen::Matrix<double, 3, 6>::Zero();
+      Vec3 carried = Vec3::Zero();
       if (a.finger >= 0) {
-        J.leftCols<4>() = FingerPointJacobian(w.hand.fingers[a.finger].kin, world_pt[s]);
+        J.leftCols<4>() = FingerPointJacobian(w.hand.fingers[a.finger].kin, lever_pt);
+        // the hand's own (prescribed) motion carries the finger
+        carried = lever_pt - w.hand.pose_prev.Apply(w.hand.pose.ApplyInverse(lever_pt));
       } else {
-        J = FreeBodyJacobian(world_pt[s], b.pose.t);
+        J = FreeBodyJacobian(lever_pt, b.pose.t);
       }
+      // Free slip of the material point, linearised where the contact response is (at
+      // the free-motion configuration): J dq_free, not the finite difference
+      // x(q_free) - x(q_prev). The step ends at q_free + dq with the solver taking that
+      // as J (dq_free + dq); the finite difference would add the curvature term
+      // 1/2 dq_free^T H dq_free, which does not vanish when the motor's pull (dq_free)
+      // and the contact's push (dq) cancel in a steady hold: a finger pressing with
+      // 2.6e-3 rad of free motion per step made the paper's box slide 0.8 mm/s in
+      // what the solver took for sticking contacts. Linearised, the error is
+      // dq_total^T H dq_free, zero when the hold is steady. The gap stays the
+      // position-level one from collision detection (its error is not integrated).
+      slip += side.sign * (carried + J * a.dq_free);
       side.h = side.sign * row.frame * J;
       row.w_diag += side.h * a.a_inv * side.h.transpose();
     }
@@ -88,16 +124,7 @@ void BuildContactSpace(World& w) {
     for (int s = 0; s < 2; ++s) {
       Body& b = w.bodies[c.body[s]];
       ContactSide& side = row.side[s];
-      if (!b.deform.enabled()) continue;
-      if (s == 0) {
-        // the query side's contact point is the control point itself
-        side.count = 1;
-        side.idx[0] = c.leaf;
-        side.w[0] = 1.0;
-      } else {
-        if (c.surface_leaf < 0) continue;
-        side.count = b.deform.Interpolate(c.anchor[1], c.surface_leaf, side.idx, side.w, ContactSide::kMaxWeights);
-      }
+      if (!b.deform.enabled() || side.count == 0) continue;  // weights set with the rigid part
       const int begin = static_cast<int>(w.side_inf_idx.size());
       for (int k = 0; k < side.count; ++k) {
         const int* idx;
@@ -121,8 +148,9 @@ void BuildContactSpace(World& w) {
       side.inf_count = end - begin;
       row.w_diag += k * Mat3::Identity();  // isotropic kernel: frame R R^T frame^T = I
       const Vec3 uf = b.pose.Rotate(SideDisplacement(side, b.u_free));
-      const Vec3 up = b.pose_prev.Rotate(SideDisplacement(side, b.u));
+      const Vec3 up = b.pose.Rotate(SideDisplacement(side, b.u));
       gap_def += side.sign * c.normal.dot(uf);
+      // the rigid motion of the displaced point is in the rigid part (J at anchor + u)
       slip_def += side.sign * (uf - up);
     }
     // normal: position-level gap after free motion (eq. 6); tangents: free slip over the step

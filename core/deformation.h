@@ -9,7 +9,7 @@
 // - boussinesq (Pauly et al. 2004, the paper's [9]): an elastic half-space,
 //   phi = (1 - nu^2) / (pi E x) for i != j and, for the point's own patch of
 //   area A_j (a disc of radius a_j), the mean-pressure value 2 (1 - nu^2) / (pi E a_j);
-//   truncated at 8 control-point spacings. Damping scales it by K/(K + D/dt)
+//   truncated at the influence radius (default 8 control-point spacings). Damping scales it by K/(K + D/dt)
 //   with K the point's own stiffness. The kernel is isotropic (the Cerruti
 //   tangential terms are neglected).
 // Kelvin-Voigt with implicit Euler makes the free displacement a relaxation of
@@ -29,7 +29,7 @@ struct DeformationParams {
   EDeformation model = EDeformation::Rigid;
   double stiffness = 0.0;         ///< gaussian: K per control point (N/m)
   double damping = 0.0;           ///< D per control point (N s/m)
-  double influence_radius = 0.0;  ///< gaussian: rho (m)
+  double influence_radius = 0.0;  ///< gaussian: rho (m); boussinesq: truncation radius (0: 8 spacings)
   double young_modulus = 0.0;     ///< boussinesq: E (Pa)
   double poisson_ratio = 0.0;     ///< boussinesq: nu
 };
