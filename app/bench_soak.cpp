@@ -1,5 +1,5 @@
 // `graspsim bench soak [--quick] [--json]`: the soak run (app/soak.h) on the
-// tracked-hand scene: a million steps (--quick: 200,000) of a looped session
+// tracked-hand scene: a million steps (--quick: 50,000) of a looped session
 // with the box held; resident memory growth after warm-up, the held box's
 // drift, NaN, step times. Fails (exit 1) when memory grows by 1 MB or more,
 // a NaN appears, or the box is no longer held at the end.
@@ -23,7 +23,8 @@ int RunBenchSoak(const BenchOptions& opt) {
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);
   so.work_dir = dir.string();
-  so.steps = opt.quick ? 200000 : 1000000;
+  so.steps = opt.quick ? 50000 : 1000000;
+  so.warmup_steps = opt.quick ? 10000 : 0;
   so.progress = !opt.json;
   if (!opt.json)
     std::printf("soak: %s, %lld steps of a looped tracker session (grasp and lift once, then the held second "

@@ -23,7 +23,7 @@ void AddBenchCommand(CLI::App& app, int* exit_code) {
       RunBenchTracking);
   add("solver", "our NSGS against Siconos NSGS and PROX: time to reach error 1e-6 on the same problems",
       RunBenchSolver);
-  add("soak", "a million steps of a looped tracker session holding the box: memory growth, drift, NaN (--quick: 200,000)",
+  add("soak", "a million steps of a looped tracker session holding the box: memory growth, drift, NaN (--quick: 50,000)",
       RunBenchSoak);
 }
 

@@ -1,5 +1,5 @@
 // The soak run in a shortened form (`graspsim bench soak` runs a million steps):
-// a looped tracker session holding the box, 40,000 steps. Memory stays flat
+// a looped tracker session holding the box, 20,000 steps. Memory stays flat
 // after warm-up, nothing turns NaN, and the box stays in the hand without creeping.
 #include "app/soak.h"
 
@@ -16,15 +16,15 @@ TEST(Soak, LoopedSessionHoldsTheBoxWithFlatMemory) {
   const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("graspsim_soak_test_" + std::to_string(getpid()));
   std::filesystem::create_directories(dir);
   o.work_dir = dir.string();
-  o.steps = 40000;
-  o.warmup_steps = 10000;
+  o.steps = 20000;
+  o.warmup_steps = 5000;
   SoakResult r;
   std::string error;
   ASSERT_TRUE(RunSoak(o, &r, &error)) << error;
   std::filesystem::remove_all(dir);
-  EXPECT_EQ(r.steps, 40000);
-  EXPECT_GE(r.loops, 37) << "the held second was read from the log again and again";
-  EXPECT_EQ(r.datagrams, 4000u);
+  EXPECT_EQ(r.steps, 20000);
+  EXPECT_GE(r.loops, 17) << "the held second was read from the log again and again";
+  EXPECT_EQ(r.datagrams, 2000u);
   EXPECT_TRUE(r.finite);
   EXPECT_GT(r.lift_mm, 40.0) << "the box is still held up (the hand lifted it 50 mm)";
   EXPECT_LT(r.drift_rate_um_s, 1.0) << "the held box creeps out of the grasp: " << r.drift_um << " um";
