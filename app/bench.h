@@ -17,6 +17,7 @@ int RunBenchCollision(const BenchOptions& opt);
 int RunBenchMls(const BenchOptions& opt);
 int RunBenchStep(const BenchOptions& opt);
 int RunBenchTracking(const BenchOptions& opt);
+int RunBenchSolver(const BenchOptions& opt);
 
 /// Accuracy of MLS projections of points near a sampled shape (errors in spacings).
 struct MlsAccuracy {

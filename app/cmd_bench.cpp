@@ -21,6 +21,8 @@ void AddBenchCommand(CLI::App& app, int* exit_code) {
   add("mls", "MLS projection accuracy and cost on a sphere and an ellipsoid at the paper's density", RunBenchMls);
   add("tracking", "DTrack parse throughput, 10 kHz receiving, latency from datagram arrival to fingertip force",
       RunBenchTracking);
+  add("solver", "our NSGS against Siconos NSGS and PROX: time to reach error 1e-6 on the same problems",
+      RunBenchSolver);
 }
 
 }  // namespace gs::app

@@ -42,11 +42,15 @@ int Live(const LiveCmd& c) {
   o.lcm_url = c.lcm_url.empty() ? tc.lcm_url : c.lcm_url;
   o.quiet = c.quiet;
   const World& w = sim->world();
-  std::printf("live: scene %s, %zu bodies, %zu tracked fingertips; %.0f Hz simulation; UDP port %d%s%s; LCM %s at %g Hz "
-              "(Ctrl-C stops)\n",
+  char lcm[300];
+  if (o.publish_rate > 0)
+    std::snprintf(lcm, sizeof(lcm), "LCM %s at %g Hz", o.lcm_url.empty() ? "default URL" : o.lcm_url.c_str(),
+                  o.publish_rate);
+  else
+    std::snprintf(lcm, sizeof(lcm), "LCM publishing off");
+  std::printf("live: scene %s, %zu bodies, %zu tracked fingertips; %.0f Hz simulation; UDP port %d%s%s; %s (Ctrl-C stops)\n",
               sim->scene().name.c_str(), w.bodies.size(), tc.fingertips.size(), 1.0 / w.params.dt, o.udp.port,
-              o.udp.multicast_group.empty() ? "" : " group ", o.udp.multicast_group.c_str(),
-              o.lcm_url.empty() ? "default URL" : o.lcm_url.c_str(), o.publish_rate);
+              o.udp.multicast_group.empty() ? "" : " group ", o.udp.multicast_group.c_str(), lcm);
   std::fflush(stdout);
   InstallStopSignals();
   LiveStats st;
@@ -64,6 +68,7 @@ int Live(const LiveCmd& c) {
               st.tracker_hz, static_cast<unsigned long long>(st.datagrams),
               static_cast<unsigned long long>(st.samples_applied), FormatParseErrors(st.parse).c_str(),
               static_cast<unsigned long long>(st.rejected_senders), static_cast<unsigned long long>(st.published));
+  if (st.parse.TotalErrors()) std::printf("live: last parse error: %s\n", st.last_parse_error.c_str());
   std::printf("{\"live\":true,\"wall_s\":%.6f,\"steps\":%lld,\"sim_rate_hz\":%.3f,\"target_rate_hz\":%.3f,"
               "\"overruns\":%lld,\"skipped_steps\":%lld,\"step_median_ms\":%.4f,\"step_max_ms\":%.4f,"
               "\"datagrams\":%llu,\"tracker_hz\":%.4f,\"parse_errors\":%llu,\"published\":%llu,\"lcm_ok\":%s}\n",

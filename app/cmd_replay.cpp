@@ -56,15 +56,20 @@ int Replay(const ReplayOptions& opt) {
     return kExitUsage;
   }
   std::string error;
-  std::vector<tracking::RecordedDatagram> log;
-  tracking::SessionReadStats log_stats;
-  if (!tracking::ReadSession(log_path, &log, &error, &log_stats)) {
+  // a first pass finds the session's span; the replay then streams the log
+  tracking::SessionSummary summary;
+  if (!tracking::ScanSession(log_path, &summary, &error)) {
     std::fprintf(stderr, "replay: %s\n", error.c_str());
     return kExitBadInput;
   }
-  if (log.empty()) {
+  if (summary.datagrams == 0) {
     std::fprintf(stderr, "replay: %s: no datagrams on channel %s (%llu events on other channels)\n", log_path.c_str(),
-                 tracking::kRawChannel, static_cast<unsigned long long>(log_stats.other_channels));
+                 tracking::kRawChannel, static_cast<unsigned long long>(summary.stats.other_channels));
+    return kExitBadInput;
+  }
+  tracking::SessionReader reader;
+  if (!reader.Open(log_path, &error)) {
+    std::fprintf(stderr, "replay: %s\n", error.c_str());
     return kExitBadInput;
   }
   auto sim = std::make_unique<TrackedSim>();
@@ -74,11 +79,14 @@ int Replay(const ReplayOptions& opt) {
   }
   World& w = sim->world();
   const double dt = w.params.dt;
-  auto arrival = [&](size_t i) { return 1e-6 * static_cast<double>(log[i].monotonic_utime - log[0].monotonic_utime); };
-  const double duration = opt.duration > 0 ? opt.duration : arrival(log.size() - 1) + opt.tail;
+  auto arrival = [&](const tracking::RecordedDatagram& d) {
+    return 1e-6 * static_cast<double>(d.monotonic_utime - summary.first_monotonic_utime);
+  };
+  const double span = 1e-6 * static_cast<double>(summary.last_monotonic_utime - summary.first_monotonic_utime);
+  const double duration = opt.duration > 0 ? opt.duration : span + opt.tail;
   const int64_t steps = static_cast<int64_t>(std::ceil(duration / dt - 1e-9));
   std::printf("replay: %s in scene %s: %zu datagrams over %.3f s; simulating %.3f s (%lld steps)\n", log_path.c_str(),
-              sim->scene().name.c_str(), log.size(), arrival(log.size() - 1), duration,
+              sim->scene().name.c_str(), static_cast<size_t>(summary.datagrams), span, duration,
               static_cast<long long>(steps));
   std::fflush(stdout);
 
@@ -103,6 +111,8 @@ int Replay(const ReplayOptions& opt) {
   double lifted_time = 0.0;  // simulated seconds with the box 2 cm or more above its start
   size_t next = 0;
   tracking::TargetSample sample;
+  tracking::RecordedDatagram d;
+  bool pending = reader.Next(&d);
   const bool tty = StdoutIsTerminal() && !opt.quiet;
   InstallStopSignals();
   using Clock = std::chrono::steady_clock;
@@ -114,17 +124,17 @@ int Replay(const ReplayOptions& opt) {
   double slowest_detect = 0, slowest_solve = 0;
   for (; step < steps && !StopRequested(); ++step) {
     // every datagram that arrived by now applies from this step on
-    while (next < log.size() && arrival(next) <= w.time + 1e-12) {
-      const tracking::RecordedDatagram& d = log[next];
+    while (pending && arrival(d) <= w.time + 1e-12) {
       sim->Ingest(d.data.data(), d.data.size(), false, &sample);
       sample.sequence = static_cast<uint64_t>(d.sequence);
       sim->Push(sample);
       int mask = 0;
       for (int i = 0; i < sample.count; ++i) mask |= sample.valid[i] ? 1 << i : 0;
       frames << w.time;
-      Row(frames, arrival(next));
+      Row(frames, arrival(d));
       frames << "," << d.sequence << "," << sample.frame << "," << sample.parse_errors << "," << mask << "\n";
       ++next;
+      pending = reader.Next(&d);
     }
     if (opt.realtime)
       std::this_thread::sleep_until(t0 + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(w.time)));
@@ -168,6 +178,10 @@ int Replay(const ReplayOptions& opt) {
   }
   const double wall = std::chrono::duration<double>(Clock::now() - t0).count();
   if (tty) std::printf("\n");
+  if (!reader.error().empty()) {
+    std::fprintf(stderr, "replay: %s\n", reader.error().c_str());
+    return kExitBadInput;
+  }
   if (step < steps) std::printf("replay: interrupted at t=%.3f s\n", w.time);
   const tracking::ParseStats& ps = sim->parser().stats();
   const bool lifted = max_rise >= 0.02;
@@ -196,7 +210,7 @@ int Replay(const ReplayOptions& opt) {
     std::ostringstream js;
     js.precision(17);
     js << "{\"scene\":\"" << sim->scene().name << "\",\"log\":\"" << std::filesystem::path(log_path).filename().string()
-       << "\",\"datagrams\":" << log.size() << ",\"datagrams_applied\":" << next << ",\"steps\":" << step
+       << "\",\"datagrams\":" << summary.datagrams << ",\"datagrams_applied\":" << next << ",\"steps\":" << step
        << ",\"dt_s\":" << dt << ",\"simulated_s\":" << w.time << ",\"parse_errors\":" << ps.TotalErrors()
        << ",\"parse_errors_by_category\":" << ParseErrorsJson(ps) << ",\"rejected_steps\":" << w.rejected_steps
        << ",\"unconverged_steps\":" << w.unconverged_steps << ",\"max_coupling_force_N\":" << max_coupling

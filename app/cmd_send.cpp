@@ -31,51 +31,72 @@ int Send(const SendOptions& opt) {
     return kExitUsage;
   }
   std::string error;
-  // what to send: (time offset s, bytes)
-  std::vector<std::pair<double, std::string>> datagrams;
-  if (opt.synthetic) {
-    tracking::SyntheticHand hand;
-    hand.fingers = opt.fingers;
-    const double rate = opt.rate > 0 ? opt.rate : 100.0;
-    const int n = static_cast<int>(hand.duration_s * rate) + 1;
-    for (int i = 0; i < n; ++i) datagrams.emplace_back(i / rate, hand.Datagram(i / rate, static_cast<uint32_t>(i + 1)));
-  } else {
-    std::vector<tracking::RecordedDatagram> rec;
-    if (!tracking::ReadSession(opt.log, &rec, &error)) {
-      std::fprintf(stderr, "send: %s\n", error.c_str());
-      return kExitBadInput;
-    }
-    if (rec.empty()) {
-      std::fprintf(stderr, "send: %s holds no datagrams on %s\n", opt.log.c_str(), tracking::kRawChannel);
-      return kExitBadInput;
-    }
-    for (size_t i = 0; i < rec.size(); ++i) {
-      const double t = opt.rate > 0 ? static_cast<double>(i) / opt.rate
-                                    : 1e-6 * static_cast<double>(rec[i].monotonic_utime - rec[0].monotonic_utime);
-      datagrams.emplace_back(t, std::move(rec[i].data));
-    }
-  }
   tracking::UdpSender tx;
   if (!tx.Open(opt.host, opt.port, &error)) {
     std::fprintf(stderr, "send: %s\n", error.c_str());
     return kExitUsage;
   }
+  // one pass: the synthetic hand, or the log streamed (sessions can be longer than memory)
+  tracking::SyntheticHand hand;
+  hand.fingers = opt.fingers;
+  const double synthetic_rate = opt.rate > 0 ? opt.rate : 100.0;
+  uint64_t per_pass = 0;
+  double period = 0.0;  // seconds from one pass's start to the next
+  if (opt.synthetic) {
+    per_pass = static_cast<uint64_t>(hand.duration_s * synthetic_rate) + 1;
+    period = static_cast<double>(per_pass) / synthetic_rate;
+  } else {
+    tracking::SessionSummary summary;
+    if (!tracking::ScanSession(opt.log, &summary, &error)) {
+      std::fprintf(stderr, "send: %s\n", error.c_str());
+      return kExitBadInput;
+    }
+    if (summary.datagrams == 0) {
+      std::fprintf(stderr, "send: %s holds no datagrams on %s\n", opt.log.c_str(), tracking::kRawChannel);
+      return kExitBadInput;
+    }
+    per_pass = summary.datagrams;
+    const double span = 1e-6 * static_cast<double>(summary.last_monotonic_utime - summary.first_monotonic_utime);
+    period = opt.rate > 0 ? static_cast<double>(per_pass) / opt.rate
+                          : span + (per_pass > 1 ? span / static_cast<double>(per_pass - 1) : 0.01);
+  }
   InstallStopSignals();
-  const double period = datagrams.size() > 1 ? datagrams.back().first + (datagrams[1].first - datagrams[0].first) : 1.0;
-  std::printf("send: %zu datagrams per pass (%.2f s) to %s:%d, %d pass%s\n", datagrams.size(), period, opt.host.c_str(),
-              opt.port, opt.loops, opt.loops == 1 ? "" : "es");
+  std::printf("send: %llu datagrams per pass (%.2f s) to %s:%d, %d pass%s\n", static_cast<unsigned long long>(per_pass),
+              period, opt.host.c_str(), opt.port, opt.loops, opt.loops == 1 ? "" : "es");
   std::fflush(stdout);
   if (opt.start_delay > 0) std::this_thread::sleep_for(std::chrono::duration<double>(opt.start_delay));
   using Clock = std::chrono::steady_clock;
   const auto t0 = Clock::now();
   uint64_t sent = 0;
+  // absolute deadlines: no drift over a long session
+  auto send_at = [&](double t, const std::string& bytes) {
+    std::this_thread::sleep_until(t0 + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(t)));
+    if (!StopRequested() && tx.Send(bytes.data(), bytes.size())) ++sent;
+  };
   for (int pass = 0; pass < opt.loops && !StopRequested(); ++pass) {
-    for (const auto& [t, bytes] : datagrams) {
-      // absolute deadlines: no drift over a long session
-      std::this_thread::sleep_until(t0 + std::chrono::duration_cast<Clock::duration>(
-                                             std::chrono::duration<double>(pass * period + t)));
-      if (StopRequested()) break;
-      if (tx.Send(bytes.data(), bytes.size())) ++sent;
+    const double base = pass * period;
+    if (opt.synthetic) {
+      for (uint64_t i = 0; i < per_pass && !StopRequested(); ++i) {
+        const double t = static_cast<double>(i) / synthetic_rate;
+        send_at(base + t, hand.Datagram(t, static_cast<uint32_t>(pass * per_pass + i + 1)));
+      }
+      continue;
+    }
+    tracking::SessionReader reader;
+    if (!reader.Open(opt.log, &error)) {
+      std::fprintf(stderr, "send: %s\n", error.c_str());
+      return kExitBadInput;
+    }
+    tracking::RecordedDatagram d;
+    int64_t first = 0;
+    for (uint64_t i = 0; reader.Next(&d) && !StopRequested(); ++i) {
+      if (i == 0) first = d.monotonic_utime;
+      const double t = opt.rate > 0 ? static_cast<double>(i) / opt.rate : 1e-6 * static_cast<double>(d.monotonic_utime - first);
+      send_at(base + t, d.data);
+    }
+    if (!reader.error().empty()) {
+      std::fprintf(stderr, "send: %s\n", reader.error().c_str());
+      return kExitBadInput;
     }
   }
   const double wall = std::chrono::duration<double>(Clock::now() - t0).count();

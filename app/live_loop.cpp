@@ -305,6 +305,7 @@ bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::str
   stats->datagrams = datagrams.load();
   stats->samples_applied = static_cast<uint64_t>(applied.load());
   stats->parse = parser.stats();
+  stats->last_parse_error = parser.last_error();
   stats->rejected_senders = rx.stats().rejected_sender.load();
   const double span = 1e-9 * static_cast<double>(last_ns.load() - first_ns.load());
   stats->tracker_hz = stats->datagrams > 1 && span > 0 ? static_cast<double>(stats->datagrams - 1) / span : 0.0;

@@ -36,6 +36,7 @@ struct LiveStats {
   uint64_t samples_applied = 0; ///< taken from the mailbox by the simulation (the rest were stale)
   double tracker_hz = 0.0;      ///< received rate: (n - 1) / (last - first arrival)
   tracking::ParseStats parse;
+  std::string last_parse_error;  ///< "line 3 (6d): object 1: ..." when there were errors
   uint64_t rejected_senders = 0;
   uint64_t published = 0;       ///< LCM messages (poses + contacts)
   bool lcm_ok = false;

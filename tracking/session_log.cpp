@@ -50,48 +50,88 @@ bool SessionWriter::Write(const Datagram& d) {
 
 void SessionWriter::Close() { log_.reset(); }
 
-bool ReadSession(const std::string& path, std::vector<RecordedDatagram>* out, std::string* error,
-                 SessionReadStats* stats) {
-  out->clear();
+SessionReader::SessionReader() = default;
+SessionReader::~SessionReader() = default;
+
+bool SessionReader::Open(const std::string& path, std::string* error) {
+  path_ = path;
+  error_.clear();
+  stats_ = SessionReadStats();
+  last_ = INT64_MIN;
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec)) {
-    *error = path + ": no such session log";
+    *error = error_ = path + ": no such session log";
     return false;
   }
-  lcm::LogFile log(path, "r");
-  if (!log.good()) {
-    *error = path + ": cannot open the LCM log";
+  log_ = std::make_unique<lcm::LogFile>(path, "r");
+  if (!log_->good()) {
+    *error = error_ = path + ": cannot open the LCM log";
+    log_.reset();
     return false;
   }
-  SessionReadStats st;
-  int64_t last = INT64_MIN;
-  while (const lcm::LogEvent* ev = log.readNextEvent()) {
-    ++st.events;
+  return true;
+}
+
+bool SessionReader::Next(RecordedDatagram* out) {
+  if (!log_ || !error_.empty()) return false;
+  while (const lcm::LogEvent* ev = log_->readNextEvent()) {
+    ++stats_.events;
     if (ev->channel != kRawChannel) {
-      ++st.other_channels;
+      ++stats_.other_channels;
       continue;
     }
     graspsim::dtrack_datagram_t m;
     if (ev->datalen < 0 || m.decode(ev->data, 0, ev->datalen) < 0 || m.size != static_cast<int32_t>(m.data.size()) ||
         m.size > static_cast<int32_t>(UdpReceiver::kBufferBytes)) {
-      *error = path + ": event " + std::to_string(st.events) + " on " + kRawChannel +
+      error_ = path_ + ": event " + std::to_string(stats_.events) + " on " + kRawChannel +
                " is not a graspsim.dtrack_datagram_t (damaged log or another type)";
       return false;
     }
-    if (m.monotonic_utime < last) {
-      *error = path + ": event " + std::to_string(st.events) + ": arrival time goes backwards";
+    if (m.monotonic_utime < last_) {
+      error_ = path_ + ": event " + std::to_string(stats_.events) + ": arrival time goes backwards";
       return false;
     }
-    last = m.monotonic_utime;
-    RecordedDatagram r;
-    r.utime = m.utime;
-    r.monotonic_utime = m.monotonic_utime;
-    r.sequence = m.sequence;
-    r.source = m.source;
-    r.data.assign(m.data.begin(), m.data.end());
-    out->push_back(std::move(r));
+    last_ = m.monotonic_utime;
+    out->utime = m.utime;
+    out->monotonic_utime = m.monotonic_utime;
+    out->sequence = m.sequence;
+    out->source = m.source;
+    out->data.assign(m.data.begin(), m.data.end());
+    return true;
   }
-  if (stats) *stats = st;
+  return false;
+}
+
+bool ScanSession(const std::string& path, SessionSummary* out, std::string* error) {
+  *out = SessionSummary();
+  SessionReader r;
+  if (!r.Open(path, error)) return false;
+  RecordedDatagram d;
+  while (r.Next(&d)) {
+    if (out->datagrams == 0) out->first_monotonic_utime = d.monotonic_utime;
+    out->last_monotonic_utime = d.monotonic_utime;
+    ++out->datagrams;
+  }
+  out->stats = r.stats();
+  if (!r.error().empty()) {
+    *error = r.error();
+    return false;
+  }
+  return true;
+}
+
+bool ReadSession(const std::string& path, std::vector<RecordedDatagram>* out, std::string* error,
+                 SessionReadStats* stats) {
+  out->clear();
+  SessionReader r;
+  if (!r.Open(path, error)) return false;
+  RecordedDatagram d;
+  while (r.Next(&d)) out->push_back(d);
+  if (stats) *stats = r.stats();
+  if (!r.error().empty()) {
+    *error = r.error();
+    return false;
+  }
   return true;
 }
 

@@ -50,6 +50,32 @@ struct SessionReadStats {
   uint64_t other_channels = 0;    ///< events on other channels (ignored)
 };
 
+/// Reads a session log one datagram at a time (sessions can be longer than memory).
+class SessionReader {
+ public:
+  SessionReader();
+  ~SessionReader();
+  bool Open(const std::string& path, std::string* error);
+  /// The next datagram; false at the end of the log or on an error (then error() is set).
+  bool Next(RecordedDatagram* out);
+  const std::string& error() const { return error_; }
+  const SessionReadStats& stats() const { return stats_; }
+
+ private:
+  std::unique_ptr<lcm::LogFile> log_;
+  std::string path_, error_;
+  SessionReadStats stats_;
+  int64_t last_ = INT64_MIN;
+};
+
+/// What a scan of a whole log finds, without keeping the datagrams.
+struct SessionSummary {
+  uint64_t datagrams = 0;
+  int64_t first_monotonic_utime = 0, last_monotonic_utime = 0;
+  SessionReadStats stats;
+};
+bool ScanSession(const std::string& path, SessionSummary* out, std::string* error);
+
 /// Reads every datagram of a session log, in log order. False with a message
 /// naming the file and event when the file is missing, damaged or holds a
 /// message of another type on DTRACK_RAW, or when arrival times go backwards.

@@ -270,6 +270,8 @@ struct BadLine {
   EParseError category;
   const char* name;
 };
+// gtest prints the case by its name (not its bytes) in test listings
+void PrintTo(const BadLine& b, std::ostream* os) { *os << b.name; }
 
 class DTrackMalformed : public ::testing::TestWithParam<BadLine> {};
 

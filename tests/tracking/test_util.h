@@ -69,8 +69,21 @@ class Background {
   ~Background() {
     if (pipe_) Wait();
   }
+  /// Reads one line of the process's output (kept for Wait()); empty at end of output.
+  std::string ReadLine() {
+    std::string line;
+    if (!pipe_) return line;
+    char buf[4096];
+    while (std::fgets(buf, sizeof(buf), pipe_)) {
+      line += buf;
+      if (!line.empty() && line.back() == '\n') break;
+    }
+    early_ += line;
+    return line;
+  }
   Result Wait() {
     Result r;
+    r.output = early_;
     if (!pipe_) return r;
     char buf[4096];
     size_t n;
@@ -83,6 +96,7 @@ class Background {
 
  private:
   FILE* pipe_ = nullptr;
+  std::string early_;
 };
 
 /// A child process started directly (its pid known, so that the test can signal exactly it).

@@ -1,0 +1,33 @@
+// Siconos Numerics (Debian libsiconos-numerics-dev) as the reference solver of
+// `graspsim bench solver`: the same FcProblem handed to Siconos' NSGS and PROX,
+// timed, and the forces' error measured with Siconos' own fc3d_compute_error.
+// Built only when the library is found (GRASPSIM_HAVE_SICONOS).
+#pragma once
+
+#include <Eigen/Core>
+#include <string>
+
+#include "core/fc_problem.h"
+
+namespace gs::app {
+
+enum class ESiconosSolver { Nsgs, Prox };
+
+struct SiconosRun {
+  bool available = false;   ///< false when built without Siconos
+  int info = -1;            ///< the driver's return code (0: its own test passed)
+  int iterations = 0;
+  double seconds = 0.0;     ///< the driver call alone (problem built beforehand)
+  double error = NAN;       ///< fc3d_compute_error of the returned forces, normalised as SOLVER-REFERENCE says
+  double tolerance = 0.0;   ///< the tolerance handed to Siconos
+};
+
+/// True when Siconos is compiled in.
+bool SiconosAvailable();
+
+/// Solves p from zero forces with Siconos; Siconos' diagnostics (it prints on
+/// stdout) are silenced. *r receives the forces when given.
+SiconosRun SolveWithSiconos(const FcProblem& p, ESiconosSolver solver, double tolerance, int max_iterations,
+                            Eigen::VectorXd* r = nullptr);
+
+}  // namespace gs::app
