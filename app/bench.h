@@ -18,6 +18,7 @@ int RunBenchMls(const BenchOptions& opt);
 int RunBenchStep(const BenchOptions& opt);
 int RunBenchTracking(const BenchOptions& opt);
 int RunBenchSolver(const BenchOptions& opt);
+int RunBenchRender(const BenchOptions& opt);
 
 /// Accuracy of MLS projections of points near a sampled shape (errors in spacings).
 struct MlsAccuracy {

@@ -23,6 +23,7 @@ void AddBenchCommand(CLI::App& app, int* exit_code) {
       RunBenchTracking);
   add("solver", "our NSGS against Siconos NSGS and PROX: time to reach error 1e-6 on the same problems",
       RunBenchSolver);
+  add("render", "ms per frame for the paper grasp at 640x480 and 1280x720 (target 33 ms at 640x480)", RunBenchRender);
 }
 
 }  // namespace gs::app

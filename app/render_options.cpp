@@ -15,6 +15,9 @@ void AddRenderOptions(CLI::App* cmd, RenderOptions* opt) {
   cmd->add_option("--fps", opt->fps, "frames per simulated second")->capture_default_str()->check(CLI::Range(1, 240));
   cmd->add_option("--force-scale", opt->force_scale, "force arrow length (m per N; default from the object's weight)")
       ->check(CLI::PositiveNumber);
+  cmd->add_option("--arrows", opt->arrows, "force arrows: pair (one per touching body pair), contact, none")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"pair", "contact", "none"}));
   cmd->add_flag("--no-hud", opt->no_hud, "no heads-up display in the frames");
 }
 
@@ -68,12 +71,12 @@ render::Camera SceneOrDefaultCamera(bool has_camera, const SceneCamera& c, const
   return cam;
 }
 
-double DefaultForceScale(const World& w) {
+double DefaultForceScale(const World& w, bool per_pair) {
   double mass = 0;
   for (const Body& b : w.bodies)
     if (b.motion == EMotion::Free && b.finger < 0) mass = std::max(mass, b.mass);
-  const double per_contact = mass > 0 ? mass * 9.81 / 8.0 : 0.1;
-  return 0.015 / per_contact;
+  const double weight = mass > 0 ? mass * 9.81 : 1.0;
+  return per_pair ? 0.03 / weight : 0.015 / (weight / 8.0);
 }
 
 FrameRecorder::~FrameRecorder() {
@@ -104,7 +107,9 @@ bool FrameRecorder::Start(const RenderOptions& opt, const BuiltScene& scene, std
   auto first = std::make_unique<WorldSnapshot>();
   TakeSnapshot(w, first.get());
   camera_ = SceneOrDefaultCamera(scene.has_camera, scene.camera, *rig_, *first);
-  style_.force_scale = opt.force_scale > 0 ? opt.force_scale : DefaultForceScale(w);
+  style_.per_pair = opt.arrows == "pair";
+  style_.arrows = opt.arrows != "none";
+  style_.force_scale = opt.force_scale > 0 ? opt.force_scale : DefaultForceScale(w, style_.per_pair);
   style_.hud = !opt.no_hud;
   queue_.push_back(std::move(first));
   taken_ = 1;

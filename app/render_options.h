@@ -29,6 +29,7 @@ struct RenderOptions {
   std::string size = "640x480";
   int fps = 30;
   double force_scale = 0.0;    ///< arrow length per force (m/N); 0: the default
+  std::string arrows = "pair";  ///< pair (resultant per touching body pair), contact, none
   bool no_hud = false;
   bool enabled() const { return !frames.empty() || !video.empty(); }
 };
@@ -44,8 +45,8 @@ render::Camera SceneOrDefaultCamera(bool has_camera, const SceneCamera& c, const
                                     const WorldSnapshot& s);
 
 /// Default arrow scale (m/N): the weight of the heaviest free body that is not a
-/// fingertip, spread over 8 contacts, gives a 1.5 cm arrow.
-double DefaultForceScale(const World& w);
+/// fingertip gives a 3 cm arrow (per pair), or spread over 8 contacts a 1.5 cm one (per contact).
+double DefaultForceScale(const World& w, bool per_pair);
 
 class FrameRecorder {
  public:

@@ -70,6 +70,61 @@ void DrawPlane(const Pose& pose, const Camera& cam) {
   glEnd();
 }
 
+// a lit cylinder from a to b
+void DrawCylinder(const Vec3& a, const Vec3& b, double radius) {
+  const Vec3 axis = b - a;
+  const double len = axis.norm();
+  if (!(len > 1e-9)) return;
+  const Vec3 z = axis / len, x = AnyPerpendicular(z), y = z.cross(x);
+  constexpr int n = 12;
+  glBegin(GL_QUAD_STRIP);
+  for (int i = 0; i <= n; ++i) {
+    const double t = 2.0 * M_PI * i / n;
+    const Vec3 d = std::cos(t) * x + std::sin(t) * y;
+    const Vec3 p = a + radius * d, q = b + radius * d;
+    glNormal3d(d.x(), d.y(), d.z());
+    glVertex3d(p.x(), p.y(), p.z());
+    glVertex3d(q.x(), q.y(), q.z());
+  }
+  glEnd();
+}
+
+// a lit sphere
+void DrawBall(const Vec3& c, double radius) {
+  constexpr int nl = 8, nm = 12;
+  for (int i = 0; i < nl; ++i) {
+    const double t0 = M_PI * i / nl, t1 = M_PI * (i + 1) / nl;
+    glBegin(GL_QUAD_STRIP);
+    for (int j = 0; j <= nm; ++j) {
+      const double ph = 2.0 * M_PI * j / nm;
+      for (double t : {t0, t1}) {
+        const Vec3 d(std::sin(t) * std::cos(ph), std::sin(t) * std::sin(ph), std::cos(t));
+        const Vec3 p = c + radius * d;
+        glNormal3d(d.x(), d.y(), d.z());
+        glVertex3d(p.x(), p.y(), p.z());
+      }
+    }
+    glEnd();
+  }
+}
+
+// one arrow from a along d: a shaft and a two-stroke head facing the camera
+void Arrow(const Vec3& a, const Vec3& d, const Camera& cam) {
+  const double len = d.norm();
+  const Vec3 e = a + d;
+  glVertex3d(a.x(), a.y(), a.z());
+  glVertex3d(e.x(), e.y(), e.z());
+  Vec3 side = d.cross(e - cam.position);
+  if (side.norm() < 1e-12) side = AnyPerpendicular(d / len);
+  side = side.normalized() * (0.12 * len);
+  const Vec3 back = e - 0.25 * d;
+  const Vec3 h1 = back + side, h2 = back - side;
+  glVertex3d(e.x(), e.y(), e.z());
+  glVertex3d(h1.x(), h1.y(), h1.z());
+  glVertex3d(e.x(), e.y(), e.z());
+  glVertex3d(h2.x(), h2.y(), h2.z());
+}
+
 }  // namespace
 
 Renderer::Renderer() = default;
@@ -159,7 +214,7 @@ const Image& Renderer::Draw(const SnapshotRig& rig, const WorldSnapshot& s, cons
     const SurfaceFrame& f = surfaces_[b];
     if (r.is_plane || f.positions.empty()) continue;
     const double depth = std::max(1e-4, (s.bodies[b].pose.t - cam.position).dot(view_dir));
-    const double px = 1.7 * r.spacing * cam.PixelsPerMetre(depth, H);
+    const double px = 2.2 * r.spacing * cam.PixelsPerMetre(depth, H);
     glPointSize(static_cast<float>(std::clamp(px, 1.0, 16.0)));
     float col[4];
     BodyColour(r, r.finger >= 0, col);
@@ -170,48 +225,58 @@ const Image& Renderer::Draw(const SnapshotRig& rig, const WorldSnapshot& s, cons
   }
   glDisableClientState(GL_NORMAL_ARRAY);
   glDisableClientState(GL_VERTEX_ARRAY);
-  glDisable(GL_LIGHTING);
 
-  // finger links
+  // finger links: lit cylinders and joint balls, sized from the link lengths
   for (const FingerState& f : s.fingers) {
-    const double depth = std::max(1e-4, (f.points[1] - cam.position).dot(view_dir));
-    const double px = 0.010 * cam.PixelsPerMetre(depth, H);
-    glLineWidth(static_cast<float>(std::clamp(px, 1.0, 40.0)));
-    glColor3f(0.38f, 0.40f, 0.45f);
-    glBegin(GL_LINE_STRIP);
-    for (int i = 0; i < 4; ++i) glVertex3d(f.points[i].x(), f.points[i].y(), f.points[i].z());
-    glEnd();
-    glPointSize(static_cast<float>(std::clamp(1.5 * px, 2.0, 60.0)));
-    glColor3f(0.25f, 0.27f, 0.31f);
-    glBegin(GL_POINTS);
-    for (int i = 0; i < 3; ++i) glVertex3d(f.points[i].x(), f.points[i].y(), f.points[i].z());
-    glEnd();
+    const double reach = (f.points[1] - f.points[0]).norm() + (f.points[2] - f.points[1]).norm() +
+                         (f.points[3] - f.points[2]).norm();
+    const double radius = std::clamp(0.07 * reach, 1e-4, 0.05);
+    const float link[4] = {0.55f, 0.58f, 0.64f, 1.0f}, joint[4] = {0.35f, 0.37f, 0.42f, 1.0f};
+    glMaterialfv(GL_FRONT_AND_BACK, GL_AMBIENT_AND_DIFFUSE, link);
+    for (int i = 0; i < 3; ++i) DrawCylinder(f.points[i], f.points[i + 1], radius);
+    glMaterialfv(GL_FRONT_AND_BACK, GL_AMBIENT_AND_DIFFUSE, joint);
+    for (int i = 0; i < 3; ++i) DrawBall(f.points[i], 1.3 * radius);
   }
+  glDisable(GL_LIGHTING);
 
   // force arrows over everything
   if (style.arrows && !s.contacts.empty()) {
     glDisable(GL_DEPTH_TEST);
-    glLineWidth(2.0f);
+    glLineWidth(style.per_pair ? 3.0f : 2.0f);
     glBegin(GL_LINES);
-    for (const ContactState& c : s.contacts) {
-      const Vec3 d = c.force * style.force_scale;
-      const double len = d.norm();
-      if (!(len > 1e-7) || !std::isfinite(len)) continue;
-      const uint8_t* rgb = c.slip ? kSlipRgb : kStickRgb;
-      glColor3ub(rgb[0], rgb[1], rgb[2]);
-      const Vec3 a = c.point, e = c.point + d;
-      glVertex3d(a.x(), a.y(), a.z());
-      glVertex3d(e.x(), e.y(), e.z());
-      // the head: two strokes back from the tip in the plane facing the camera
-      Vec3 side = d.cross(e - cam.position);
-      if (side.norm() < 1e-12) side = AnyPerpendicular(d / len);
-      side = side.normalized() * (0.12 * len);
-      const Vec3 back = e - 0.25 * d;
-      const Vec3 h1 = back + side, h2 = back - side;
-      glVertex3d(e.x(), e.y(), e.z());
-      glVertex3d(h1.x(), h1.y(), h1.z());
-      glVertex3d(e.x(), e.y(), e.z());
-      glVertex3d(h2.x(), h2.y(), h2.z());
+    if (!style.per_pair) {
+      for (const ContactState& c : s.contacts) {
+        const Vec3 d = c.force * style.force_scale;
+        if (!(d.norm() > 1e-7) || !d.allFinite()) continue;
+        const uint8_t* rgb = c.slip ? kSlipRgb : kStickRgb;
+        glColor3ub(rgb[0], rgb[1], rgb[2]);
+        Arrow(c.point, d, cam);
+      }
+    } else {
+      // contacts come grouped by body pair from collision detection, but do not rely on it
+      pairs_.clear();
+      for (const ContactState& c : s.contacts) {
+        const double m = c.force.norm();
+        if (!std::isfinite(m)) continue;
+        PairSum* p = nullptr;
+        for (PairSum& q : pairs_)
+          if (q.a == c.body[0] && q.b == c.body[1]) p = &q;
+        if (!p) {
+          pairs_.push_back(PairSum{c.body[0], c.body[1]});
+          p = &pairs_.back();
+        }
+        p->force += c.force;
+        p->centroid += m * c.point;
+        p->weight += m;
+        p->slip_weight += c.slip ? m : 0.0;
+      }
+      for (const PairSum& p : pairs_) {
+        const Vec3 d = p.force * style.force_scale;
+        if (!(p.weight > 0) || !(d.norm() > 1e-7)) continue;
+        const uint8_t* rgb = p.slip_weight > 0.5 * p.weight ? kSlipRgb : kStickRgb;
+        glColor3ub(rgb[0], rgb[1], rgb[2]);
+        Arrow(p.centroid / p.weight, d, cam);
+      }
     }
     glEnd();
     glEnable(GL_DEPTH_TEST);

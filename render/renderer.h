@@ -6,9 +6,10 @@
 // - every body's surface points, deformed by eq. 8 with recomputed normals,
 //   as lit splats sized from the point spacing (planes as a checkerboard);
 // - each finger's links as thick lines from its base to its fingertip;
-// - an arrow per contact force (on body[0], from the contact point), length
-//   force * force_scale, green while sticking, red on the friction cone's
-//   boundary (slipping), drawn over the surfaces; a legend gives the scale;
+// - an arrow per contact force (on body[0], from the contact point), or per
+//   touching body pair (their resultant), length force * force_scale, green
+//   while sticking, red on the friction cone's boundary (slipping; for a pair:
+//   when most of its force slips), drawn over the surfaces; a legend gives the scale;
 // - a HUD: simulated time, step, step time, contacts, iterations, residual, tracker.
 #pragma once
 
@@ -27,6 +28,9 @@ struct Style {
   double legend_force = 0.0;   ///< force shown by the legend bar (N); 0: a round value near 3 cm of arrow
   bool hud = true;
   bool arrows = true;
+  /// one arrow per touching body pair (their summed force at the force-weighted
+  /// centroid of their contacts) instead of one per contact
+  bool per_pair = false;
   bool legend = true;
 };
 
@@ -62,6 +66,12 @@ class Renderer {
   std::unique_ptr<Context> ctx_;
   Image frame_;
   std::vector<SurfaceFrame> surfaces_;
+  struct PairSum {
+    int a = -1, b = -1;
+    Vec3 force = Vec3::Zero(), centroid = Vec3::Zero();
+    double weight = 0, slip_weight = 0;
+  };
+  std::vector<PairSum> pairs_;
   double expand_ms_ = 0, draw_ms_ = 0, overlay_ms_ = 0;
   std::string gl_version_;
 };
