@@ -47,7 +47,7 @@ int RunBenchRender(const BenchOptions& opt) {
   TakeSnapshot(w, &snap);
   size_t points = 0;
   for (const SurfaceRig& r : rig->bodies) points += r.rest_p.size();
-  const render::Camera cam = SceneOrDefaultCamera(built->has_camera, built->camera, *rig, snap);
+  const render::Camera cam = SceneOrDefaultCamera(*built, *rig, snap);
   render::Style style;
   style.per_pair = true;
   style.force_scale = DefaultForceScale(w, true);

@@ -1,8 +1,13 @@
 // The render options, the scene's camera section and the render thread.
 #include "app/render_options.h"
 
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+
 #include <chrono>
 #include <cstdio>
+#include <filesystem>
 
 #include "render/frame_sink.h"
 
@@ -59,10 +64,14 @@ void ReadCameraSection(const YAML::Node& node, const std::string& file, Scene* s
   m.Finish();
 }
 
-render::Camera SceneOrDefaultCamera(bool has_camera, const SceneCamera& c, const SnapshotRig& rig,
-                                    const WorldSnapshot& s) {
-  render::Camera cam = render::DefaultCamera(rig, s, has_camera ? c.fov_deg : 35.0);
-  if (!has_camera) return cam;
+render::Camera SceneOrDefaultCamera(const BuiltScene& scene, const SnapshotRig& rig, const WorldSnapshot& s) {
+  // the scripted hand's travel: the objects it carries move with it
+  std::vector<Vec3> sweep;
+  const auto& keys = scene.script.hand_keys();
+  for (const auto& k : keys) sweep.push_back(k.second - keys.front().second);
+  const SceneCamera& c = scene.camera;
+  render::Camera cam = render::DefaultCamera(rig, s, scene.has_camera ? c.fov_deg : 35.0, 1.15, sweep);
+  if (!scene.has_camera) return cam;
   const Vec3 offset = cam.position - cam.target;
   if (c.has_target) cam.target = c.target;
   cam.position = c.has_position ? c.position : cam.target + offset;
@@ -90,58 +99,123 @@ FrameRecorder::~FrameRecorder() {
   }
 }
 
-bool FrameRecorder::Start(const RenderOptions& opt, const BuiltScene& scene, std::string* error) {
+void FrameRecorder::TakeInto(const World& w, const char* tracker, WorldSnapshot* s) const {
+  TakeSnapshot(w, s);
+  if (!wall_times_) s->hud.step_ms = -1.0;
+  if (tracker) s->hud.tracker = tracker;  // reuses the string's capacity (reserved in live mode)
+}
+
+bool FrameRecorder::Start(const RenderOptions& opt, const BuiltScene& scene, std::string* error, ERecordMode mode,
+                          bool wall_times) {
   if (!opt.enabled()) return true;
   opt_ = opt;
+  mode_ = mode;
+  wall_times_ = wall_times;
   if (!ParseSize(opt.size, &width_, &height_, error)) return false;
   if (!opt.video.empty() && (width_ % 2 || height_ % 2)) {
     *error = "--video: the size " + opt.size + " has an odd side; H.264 (yuv420p) needs even width and height";
     return false;
   }
-  if (!opt.video.empty() && render::FindExecutable("ffmpeg").empty()) {
-    *error = "--video: ffmpeg was not found on PATH (install it: apt-get install ffmpeg), or use --frames DIR";
-    return false;
+  if (!opt.video.empty()) {
+    if (render::FindExecutable("ffmpeg").empty()) {
+      *error = "--video: ffmpeg was not found on PATH (install it: apt-get install ffmpeg), or use --frames DIR";
+      return false;
+    }
+    const std::filesystem::path parent = std::filesystem::path(opt.video).parent_path();
+    std::error_code ec;
+    if (!parent.empty() && !std::filesystem::is_directory(parent, ec)) {
+      *error = "--video " + opt.video + ": folder " + parent.string() + " does not exist";
+      return false;
+    }
+    if (access(parent.empty() ? "." : parent.c_str(), W_OK) != 0) {
+      *error = "--video " + opt.video + ": folder " + (parent.empty() ? std::string(".") : parent.string()) +
+               " is not writable";
+      return false;
+    }
+  }
+  // the sinks are opened on the render thread; check what can fail here
+  if (!opt.frames.empty()) {
+    render::PngSequence probe;
+    if (!probe.Open(opt.frames, error)) return false;
+    if (access(opt.frames.c_str(), W_OK) != 0) {
+      *error = "--frames: folder " + opt.frames + " is not writable";
+      return false;
+    }
   }
   const World& w = scene.world;
   rig_ = BuildSnapshotRig(w);
   auto first = std::make_unique<WorldSnapshot>();
-  TakeSnapshot(w, first.get());
-  camera_ = SceneOrDefaultCamera(scene.has_camera, scene.camera, *rig_, *first);
+  TakeInto(w, nullptr, first.get());
+  camera_ = SceneOrDefaultCamera(scene, *rig_, *first);
   style_.per_pair = opt.arrows == "pair";
   style_.arrows = opt.arrows != "none";
   style_.force_scale = opt.force_scale > 0 ? opt.force_scale : DefaultForceScale(w, style_.per_pair);
   style_.hud = !opt.no_hud;
-  queue_.push_back(std::move(first));
-  taken_ = 1;
-  done_ = false;
-  active_ = true;
-  // the sinks are opened on the render thread; open errors surface in Finish, so
-  // check the cheap ones here
-  if (!opt.frames.empty()) {
-    render::PngSequence probe;
-    if (!probe.Open(opt.frames, error)) {
-      active_ = false;
-      return false;
+  queue_.clear();
+  pool_.clear();
+  if (mode_ == ERecordMode::Live) {
+    // every buffer the simulation thread touches gets its capacity now
+    constexpr int kPool = 4;
+    first->contacts.reserve(static_cast<size_t>(std::max(w.params.max_contacts, 1)));
+    first->hud.tracker.reserve(128);
+    queue_.reserve(kPool + 1);
+    pool_.reserve(kPool + 1);
+    for (int i = 0; i < kPool; ++i) {
+      auto s = std::make_unique<WorldSnapshot>(*first);
+      s->contacts.reserve(static_cast<size_t>(std::max(w.params.max_contacts, 1)));
+      s->hud.tracker.reserve(128);
+      pool_.push_back(std::move(s));
     }
   }
+  queue_.push_back(std::move(first));
+  taken_ = 1;
+  drawn_ = 0;
+  dropped_ = 0;
+  done_ = false;
+  active_ = true;
   thread_ = std::thread([this] { Loop(); });
   return true;
 }
 
-void FrameRecorder::AfterStep(const World& w) {
+void FrameRecorder::AfterStep(const World& w, const char* tracker) {
   if (!active_) return;
+  if (mode_ == ERecordMode::Live) {
+    // never wait: a busy lock leaves the frame due for the next step
+    if (!FrameDue(w)) return;
+    if (!held_) {
+      if (!mu_.try_lock()) return;
+      if (!pool_.empty()) {
+        held_ = std::move(pool_.back());
+        pool_.pop_back();
+      }
+      mu_.unlock();
+      if (!held_) {  // every snapshot is waiting to be drawn: drop this frame time
+        dropped_.fetch_add(1, std::memory_order_relaxed);
+        ++taken_;
+        return;
+      }
+    }
+    TakeInto(w, tracker, held_.get());
+    if (!mu_.try_lock()) return;  // retaken and queued on a later step
+    queue_.push_back(std::move(held_));
+    max_queue_ = std::max(max_queue_, queue_.size());
+    mu_.unlock();
+    cv_.notify_one();
+    ++taken_;
+    return;
+  }
   // frame k at k / fps simulated seconds; half a step of slack against rounding
-  while (static_cast<double>(taken_) / opt_.fps <= w.time + 0.5 * w.params.dt) {
+  while (FrameDue(w)) {
     std::unique_ptr<WorldSnapshot> s;
     {
       std::lock_guard<std::mutex> lock(mu_);
       if (!pool_.empty()) {
-        s = std::move(pool_.front());
-        pool_.pop_front();
+        s = std::move(pool_.back());
+        pool_.pop_back();
       }
     }
     if (!s) s = std::make_unique<WorldSnapshot>();
-    TakeSnapshot(w, s.get());
+    TakeInto(w, tracker, s.get());
     {
       std::lock_guard<std::mutex> lock(mu_);
       queue_.push_back(std::move(s));
@@ -154,6 +228,9 @@ void FrameRecorder::AfterStep(const World& w) {
 
 void FrameRecorder::Loop() {
   using Clock = std::chrono::steady_clock;
+  // live: below the simulation thread; llvmpipe's threads, made with the
+  // context, inherit the nice value
+  if (mode_ == ERecordMode::Live) setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), 10);
   render::Renderer renderer;
   std::string err;
   bool ok = renderer.Init(width_, height_, &err);
@@ -168,7 +245,7 @@ void FrameRecorder::Loop() {
       cv_.wait(lock, [this] { return done_ || !queue_.empty(); });
       if (queue_.empty()) break;
       s = std::move(queue_.front());
-      queue_.pop_front();
+      queue_.erase(queue_.begin());
     }
     if (ok) {
       const auto t0 = Clock::now();
@@ -179,7 +256,7 @@ void FrameRecorder::Loop() {
       const auto t2 = Clock::now();
       draw_ms_total_ += std::chrono::duration<double, std::milli>(t1 - t0).count();
       write_ms_total_ += std::chrono::duration<double, std::milli>(t2 - t1).count();
-      if (ok) ++drawn_;
+      if (ok) drawn_.fetch_add(1, std::memory_order_relaxed);
     }
     std::lock_guard<std::mutex> lock(mu_);
     pool_.push_back(std::move(s));
@@ -205,9 +282,12 @@ bool FrameRecorder::Finish(std::string* error) {
     *error = error_;
     return false;
   }
-  std::printf("rendered %d frames at %dx%d, %d fps (%.1f ms drawing, %.1f ms writing per frame; at most %zu queued)",
-              drawn_, width_, height_, opt_.fps, drawn_ ? draw_ms_total_ / drawn_ : 0.0,
-              drawn_ ? write_ms_total_ / drawn_ : 0.0, max_queue_);
+  const int drawn = frames_drawn();
+  std::printf("rendered %d frames at %dx%d, %d fps (%.1f ms drawing, %.1f ms writing per frame; at most %zu queued",
+              drawn, width_, height_, opt_.fps, drawn ? draw_ms_total_ / drawn : 0.0,
+              drawn ? write_ms_total_ / drawn : 0.0, max_queue_);
+  if (mode_ == ERecordMode::Live) std::printf("; %d frame times dropped while the renderer was behind", frames_dropped());
+  std::printf(")");
   if (!opt_.frames.empty()) std::printf("; frames in %s", opt_.frames.c_str());
   if (!opt_.video.empty()) std::printf("; video %s", opt_.video.c_str());
   std::printf("\n");

@@ -15,6 +15,7 @@ std::shared_ptr<const SnapshotRig> BuildSnapshotRig(const World& w) {
     r.name = body.name;
     r.is_plane = body.geometry.is_plane;
     r.finger = body.finger;
+    r.fixed = body.motion == EMotion::Fixed;
     r.spacing = body.geometry.spacing;
     r.shape = body.geometry.shape;
     if (r.is_plane) continue;

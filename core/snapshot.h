@@ -35,6 +35,7 @@ struct SurfaceRig {
   bool is_plane = false;
   bool deformable = false;
   int finger = -1;             ///< for a fingertip, its finger
+  bool fixed = false;          ///< does not move (EMotion::Fixed)
   double spacing = 0.0;        ///< mean point spacing (m), for splat sizes
   ShapeDesc shape;
   std::vector<Vec3> rest_p, rest_n;  ///< rest frame
@@ -76,12 +77,12 @@ struct FingerState {
 struct HudState {
   double time = 0.0;          ///< simulated (s)
   int64_t step = 0;
-  double step_ms = 0.0;       ///< wall time of the last step (ms)
+  double step_ms = 0.0;       ///< wall time of the last step (ms); < 0: not shown (deterministic frames)
   int contacts = 0;
   int iterations = 0;
   double residual = 0.0;
   bool converged = true;
-  std::string tracker = "none";  ///< tracker state, set by the caller (no tracker: "none")
+  std::string tracker = "none";  ///< tracker state, set by the caller (no tracker: "none", not shown)
 };
 
 struct WorldSnapshot {

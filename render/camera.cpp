@@ -53,7 +53,8 @@ bool Camera::Valid() const {
   return d.normalized().cross(up).norm() > 1e-6 * up.norm() && up.norm() > 0;
 }
 
-Camera DefaultCamera(const SnapshotRig& rig, const WorldSnapshot& s, double fov_deg, double margin) {
+Camera DefaultCamera(const SnapshotRig& rig, const WorldSnapshot& s, double fov_deg, double margin,
+                     const std::vector<Vec3>& sweep) {
   Vec3 lo = Vec3::Constant(1e300), hi = Vec3::Constant(-1e300);
   bool any = false;
   auto add = [&](const Vec3& p) {
@@ -79,10 +80,16 @@ Camera DefaultCamera(const SnapshotRig& rig, const WorldSnapshot& s, double fov_
   Camera cam;
   cam.fov_deg = fov_deg;
   if (!any) return cam;
+  const Vec3 lo0 = lo, hi0 = hi;
+  for (const Vec3& d : sweep)
+    if (d.allFinite()) {
+      lo = lo.cwiseMin(lo0 + d);
+      hi = hi.cwiseMax(hi0 + d);
+    }
   const Vec3 centre = 0.5 * (lo + hi);
   const double radius = std::max(0.5 * (hi - lo).norm(), 1e-3);
   const double dist = margin * radius / std::sin(0.5 * fov_deg * M_PI / 180.0);
-  const Vec3 dir = Vec3(0.55, -1.0, 0.45).normalized();
+  const Vec3 dir = Vec3(0.6, -1.0, 0.6).normalized();
   cam.target = centre;
   cam.position = centre + dist * dir;
   return cam;

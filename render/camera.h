@@ -4,6 +4,8 @@
 
 #include <Eigen/Core>
 
+#include <vector>
+
 #include "core/snapshot.h"
 #include "core/types.h"
 
@@ -33,6 +35,10 @@ struct Camera {
 /// A camera framing every body but planes, and the fingers, of a snapshot: it
 /// looks at their bounding box's centre from the front-right, slightly above,
 /// far enough that the bounding sphere (times `margin`) fills the height.
-Camera DefaultCamera(const SnapshotRig& rig, const WorldSnapshot& s, double fov_deg = 35.0, double margin = 1.35);
+/// `sweep`: offsets the scene will move by (a scripted hand's keyframes relative
+/// to its start); the box is widened to hold every shifted copy, so that a
+/// lifted object stays in the picture.
+Camera DefaultCamera(const SnapshotRig& rig, const WorldSnapshot& s, double fov_deg = 35.0, double margin = 1.15,
+                     const std::vector<Vec3>& sweep = {});
 
 }  // namespace gs::render

@@ -125,6 +125,17 @@ void Arrow(const Vec3& a, const Vec3& d, const Camera& cam) {
   glVertex3d(h2.x(), h2.y(), h2.z());
 }
 
+// +1 to show the force on body a (the contact's force), -1 for the one on b: the
+// force on the grasped object, a body that is neither fixed nor a fingertip
+double ForceSign(const SnapshotRig& rig, int a, int b) {
+  auto object = [&](int i) {
+    if (i < 0 || i >= static_cast<int>(rig.bodies.size())) return false;
+    const SurfaceRig& r = rig.bodies[i];
+    return !r.fixed && !r.is_plane && r.finger < 0;
+  };
+  return !object(a) && object(b) ? -1.0 : 1.0;
+}
+
 }  // namespace
 
 Renderer::Renderer() = default;
@@ -160,14 +171,21 @@ bool Renderer::Init(int width, int height, std::string* error) {
 }
 
 std::vector<std::string> HudLines(const HudState& h) {
-  char buf[5][96];
-  std::snprintf(buf[0], sizeof buf[0], "t = %.3f s   step %lld", h.time, static_cast<long long>(h.step));
-  std::snprintf(buf[1], sizeof buf[1], "step time %.3f ms", h.step_ms);
-  std::snprintf(buf[2], sizeof buf[2], "contacts %d", h.contacts);
-  std::snprintf(buf[3], sizeof buf[3], "iterations %d   residual %.1e%s", h.iterations, h.residual,
+  std::vector<std::string> lines;
+  char buf[128];
+  std::snprintf(buf, sizeof buf, "t = %.3f s   step %lld", h.time, static_cast<long long>(h.step));
+  lines.emplace_back(buf);
+  if (h.step_ms >= 0) {
+    std::snprintf(buf, sizeof buf, "step time %.3f ms", h.step_ms);
+    lines.emplace_back(buf);
+  }
+  std::snprintf(buf, sizeof buf, "contacts %d", h.contacts);
+  lines.emplace_back(buf);
+  std::snprintf(buf, sizeof buf, "iterations %d   residual %.1e%s", h.iterations, h.residual,
                 h.converged ? "" : " (cap)");
-  std::snprintf(buf[4], sizeof buf[4], "tracker %s", h.tracker.c_str());
-  return {buf[0], buf[1], buf[2], buf[3], buf[4]};
+  lines.emplace_back(buf);
+  if (!h.tracker.empty() && h.tracker != "none") lines.emplace_back("tracker " + h.tracker);
+  return lines;
 }
 
 const Image& Renderer::Draw(const SnapshotRig& rig, const WorldSnapshot& s, const Camera& cam, const Style& style) {
@@ -187,9 +205,10 @@ const Image& Renderer::Draw(const SnapshotRig& rig, const WorldSnapshot& s, cons
   glMatrixMode(GL_MODELVIEW);
   glLoadIdentity();
   // a key light above-left of the viewer and a fill, fixed in the eye frame
-  const float key[4] = {-0.4f, 0.6f, 1.0f, 0.0f}, fill[4] = {0.6f, -0.2f, 0.5f, 0.0f};
-  const float key_c[4] = {0.75f, 0.75f, 0.72f, 1.0f}, fill_c[4] = {0.25f, 0.27f, 0.30f, 1.0f};
-  const float amb[4] = {0.28f, 0.28f, 0.30f, 1.0f};
+  // (from the upper left: faces up brightest, faces to the right darkest)
+  const float key[4] = {-0.6f, 0.7f, 0.9f, 0.0f}, fill[4] = {0.8f, -0.2f, 0.5f, 0.0f};
+  const float key_c[4] = {0.80f, 0.79f, 0.76f, 1.0f}, fill_c[4] = {0.28f, 0.29f, 0.32f, 1.0f};
+  const float amb[4] = {0.22f, 0.22f, 0.24f, 1.0f};
   glEnable(GL_LIGHTING);
   glEnable(GL_LIGHT0);
   glEnable(GL_LIGHT1);
@@ -214,7 +233,7 @@ const Image& Renderer::Draw(const SnapshotRig& rig, const WorldSnapshot& s, cons
     const SurfaceFrame& f = surfaces_[b];
     if (r.is_plane || f.positions.empty()) continue;
     const double depth = std::max(1e-4, (s.bodies[b].pose.t - cam.position).dot(view_dir));
-    const double px = 2.2 * r.spacing * cam.PixelsPerMetre(depth, H);
+    const double px = 2.0 * r.spacing * cam.PixelsPerMetre(depth, H);
     glPointSize(static_cast<float>(std::clamp(px, 1.0, 16.0)));
     float col[4];
     BodyColour(r, r.finger >= 0, col);
@@ -239,18 +258,19 @@ const Image& Renderer::Draw(const SnapshotRig& rig, const WorldSnapshot& s, cons
   }
   glDisable(GL_LIGHTING);
 
-  // force arrows over everything
+  // force arrows over everything: the force on the grasped object, pushing
+  // (the head at the contact point)
   if (style.arrows && !s.contacts.empty()) {
     glDisable(GL_DEPTH_TEST);
     glLineWidth(style.per_pair ? 3.0f : 2.0f);
     glBegin(GL_LINES);
     if (!style.per_pair) {
       for (const ContactState& c : s.contacts) {
-        const Vec3 d = c.force * style.force_scale;
+        const Vec3 d = ForceSign(rig, c.body[0], c.body[1]) * style.force_scale * c.force;
         if (!(d.norm() > 1e-7) || !d.allFinite()) continue;
         const uint8_t* rgb = c.slip ? kSlipRgb : kStickRgb;
         glColor3ub(rgb[0], rgb[1], rgb[2]);
-        Arrow(c.point, d, cam);
+        Arrow(c.point - d, d, cam);
       }
     } else {
       // contacts come grouped by body pair from collision detection, but do not rely on it
@@ -271,11 +291,11 @@ const Image& Renderer::Draw(const SnapshotRig& rig, const WorldSnapshot& s, cons
         p->slip_weight += c.slip ? m : 0.0;
       }
       for (const PairSum& p : pairs_) {
-        const Vec3 d = p.force * style.force_scale;
-        if (!(p.weight > 0) || !(d.norm() > 1e-7)) continue;
+        const Vec3 d = ForceSign(rig, p.a, p.b) * style.force_scale * p.force;
+        if (!(p.weight > 0) || !(d.norm() > 1e-7) || !d.allFinite()) continue;
         const uint8_t* rgb = p.slip_weight > 0.5 * p.weight ? kSlipRgb : kStickRgb;
         glColor3ub(rgb[0], rgb[1], rgb[2]);
-        Arrow(p.centroid / p.weight, d, cam);
+        Arrow(p.centroid / p.weight - d, d, cam);
       }
     }
     glEnd();

@@ -5,12 +5,14 @@
 // What a frame shows:
 // - every body's surface points, deformed by eq. 8 with recomputed normals,
 //   as lit splats sized from the point spacing (planes as a checkerboard);
-// - each finger's links as thick lines from its base to its fingertip;
-// - an arrow per contact force (on body[0], from the contact point), or per
+// - each finger's links as lit cylinders from its base to its fingertip;
+// - an arrow per contact force on the grasped object (a body neither fixed nor
+//   a fingertip; else on body[0]), its head at the contact point, or per
 //   touching body pair (their resultant), length force * force_scale, green
 //   while sticking, red on the friction cone's boundary (slipping; for a pair:
 //   when most of its force slips), drawn over the surfaces; a legend gives the scale;
-// - a HUD: simulated time, step, step time, contacts, iterations, residual, tracker.
+// - a HUD: simulated time, step, step time (unless negative), contacts,
+//   iterations, residual, tracker state (unless 'none').
 #pragma once
 
 #include <memory>

@@ -341,8 +341,12 @@ TEST(Render, ForceArrowsAppearAtContactsInStickAndSlipColours) {
   const ContactState* big = &p.snap.contacts[0];
   for (const ContactState& c : p.snap.contacts)
     if (c.force.norm() > big->force.norm()) big = &c;
+  // the force on the ball (contact forces are on body[0]), its head at the contact
+  const int ball = p.ball;
+  const Vec3 on_ball = (big->body[0] == ball ? 1.0 : -1.0) * big->force;
+  ASSERT_GT(on_ball.z(), 0.0) << "the table pushes the ball up";
   double x, y;
-  ASSERT_TRUE(cam.Project(big->point + 0.5 * st.force_scale * big->force, kW, kH, &x, &y));
+  ASSERT_TRUE(cam.Project(big->point - 0.5 * st.force_scale * on_ball, kW, kH, &x, &y));
   EXPECT_GT(coloured(with, big->slip ? kSlipRgb : kStickRgb, x, y, 2), 0);
   // no arrows, no arrow pixels
   const Image without = r.Draw(*p.rig, p.snap, cam, Plain());
@@ -378,9 +382,17 @@ TEST(Render, HudTextIsDrawnAndFollowsTheNumbers) {
   later.hud.time += 1.111;
   const Image b = r.Draw(*p.rig, later, cam, st);
   EXPECT_NE(a.rgba, b.rgba);
-  const std::vector<std::string> lines = HudLines(p.snap.hud);
-  ASSERT_EQ(lines.size(), 5u);
+  std::vector<std::string> lines = HudLines(p.snap.hud);
+  ASSERT_EQ(lines.size(), 4u);  // no tracker: no tracker line
   EXPECT_NE(lines[0].find("t = 0.250 s"), std::string::npos) << lines[0];
+  EXPECT_NE(lines[1].find("step time"), std::string::npos) << lines[1];
+  HudState h = p.snap.hud;
+  h.step_ms = -1;  // replay: no wall times, frames depend on the simulation only
+  h.tracker = "3/3 tracking";
+  lines = HudLines(h);
+  ASSERT_EQ(lines.size(), 4u);
+  for (const std::string& l : lines) EXPECT_EQ(l.find("step time"), std::string::npos) << l;
+  EXPECT_EQ(lines.back(), "tracker 3/3 tracking");
 }
 
 TEST(Text, GlyphsCoverTheHudCharacters) {
