@@ -1,6 +1,7 @@
 // The render options, the scene's camera section and the render thread.
 #include "app/render_options.h"
 
+#include <sched.h>
 #include <sys/resource.h>
 #include <sys/syscall.h>
 #include <unistd.h>
@@ -143,7 +144,15 @@ bool FrameRecorder::Start(const RenderOptions& opt, const BuiltScene& scene, std
     }
   }
   const World& w = scene.world;
-  rig_ = BuildSnapshotRig(w);
+  {
+    // tracked fingertips (free bodies of their own) are drawn and treated as fingertips
+    auto rig = std::make_shared<SnapshotRig>(*BuildSnapshotRig(w));
+    if (scene.has_tracker)
+      for (const tracking::FingertipMap& f : scene.tracker.fingertips)
+        if (f.body_index >= 0 && f.body_index < static_cast<int>(rig->bodies.size()))
+          rig->bodies[f.body_index].finger = f.finger;
+    rig_ = rig;
+  }
   auto first = std::make_unique<WorldSnapshot>();
   TakeInto(w, nullptr, first.get());
   camera_ = SceneOrDefaultCamera(scene, *rig_, *first);
@@ -229,8 +238,15 @@ void FrameRecorder::AfterStep(const World& w, const char* tracker) {
 void FrameRecorder::Loop() {
   using Clock = std::chrono::steady_clock;
   // live: below the simulation thread; llvmpipe's threads, made with the
-  // context, inherit the nice value
-  if (mode_ == ERecordMode::Live) setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), 10);
+  // context, inherit the policy
+  if (mode_ == ERecordMode::Live) {
+    // SCHED_IDLE: runs only on time the simulation (and everything else) leaves
+    // over; falls back to nice 19 where the policy is refused
+    sched_param none{};
+    none.sched_priority = 0;
+    if (sched_setscheduler(static_cast<pid_t>(syscall(SYS_gettid)), SCHED_IDLE, &none) != 0)
+      setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), 19);
+  }
   render::Renderer renderer;
   std::string err;
   bool ok = renderer.Init(width_, height_, &err);
