@@ -19,6 +19,7 @@ int RunBenchStep(const BenchOptions& opt);
 int RunBenchTracking(const BenchOptions& opt);
 int RunBenchSolver(const BenchOptions& opt);
 int RunBenchSoak(const BenchOptions& opt);
+int RunBenchRender(const BenchOptions& opt);
 
 /// Accuracy of MLS projections of points near a sampled shape (errors in spacings).
 struct MlsAccuracy {

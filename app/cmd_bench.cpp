@@ -25,6 +25,7 @@ void AddBenchCommand(CLI::App& app, int* exit_code) {
       RunBenchSolver);
   add("soak", "a million steps of a looped tracker session holding the box: memory growth, drift, NaN (--quick: 50,000)",
       RunBenchSoak);
+  add("render", "ms per frame for the paper grasp at 640x480 and 1280x720 (target 33 ms at 640x480)", RunBenchRender);
 }
 
 }  // namespace gs::app

@@ -7,6 +7,7 @@
 #include "app/commands.h"
 #include "app/live_loop.h"
 #include "app/paths.h"
+#include "app/render_options.h"
 #include "app/tracker_app.h"
 
 namespace gs::app {
@@ -21,6 +22,7 @@ struct LiveCmd {
   double publish_rate = -1.0;
   std::string lcm_url;
   bool quiet = false;
+  RenderOptions render;  ///< --frames, --video, ... (docs/render.md)
 };
 
 int Live(const LiveCmd& c) {
@@ -52,11 +54,25 @@ int Live(const LiveCmd& c) {
               sim->scene().name.c_str(), w.bodies.size(), tc.fingertips.size(), 1.0 / w.params.dt, o.udp.port,
               o.udp.multicast_group.empty() ? "" : " group ", o.udp.multicast_group.c_str(), lcm);
   std::fflush(stdout);
+  // a render thread fed from a fixed pool of snapshots: never waited for
+  FrameRecorder recorder;
+  if (!recorder.Start(c.render, sim->scene(), &error, ERecordMode::Live)) {
+    std::fprintf(stderr, "live: %s\n", error.c_str());
+    return kExitUsage;
+  }
   InstallStopSignals();
   LiveStats st;
-  if (!RunLive(*sim, o, &st, &error)) {
+  if (!RunLive(*sim, o, &st, &error, &recorder)) {
     std::fprintf(stderr, "live: %s\n", error.c_str());
     return kExitBadInput;
+  }
+  const bool rendering = recorder.active();
+  if (rendering) {
+    if (!recorder.Finish(&error)) {
+      std::fprintf(stderr, "live: %s\n", error.c_str());
+      return kExitFailure;
+    }
+    st.frames_drawn = recorder.frames_drawn();
   }
   std::printf("live: %.2f s wall, %lld steps (%.1f Hz for %.0f Hz asked), %lld overruns (%.2f%%), %lld skipped; step "
               "median %.3f ms, p99 %.3f ms, max %.3f ms\n",
@@ -78,14 +94,16 @@ int Live(const LiveCmd& c) {
               "\"overruns\":%lld,\"skipped_steps\":%lld,\"step_median_ms\":%.4f,\"step_max_ms\":%.4f,"
               "\"datagrams\":%llu,\"tracker_hz\":%.4f,\"parse_errors\":%llu,\"rejected_senders\":%llu,"
               "\"silences\":%d,\"recoveries\":%d,\"rate_changes\":%d,\"garbage_bursts\":%d,\"floods\":%d,"
-              "\"rejected_bursts\":%d,\"tracker_state\":\"%s\",\"published\":%llu,\"lcm_ok\":%s}\n",
+              "\"rejected_bursts\":%d,\"tracker_state\":\"%s\",\"published\":%llu,\"lcm_ok\":%s,"
+              "\"rendering\":%s,\"frames_drawn\":%lld,\"frames_dropped\":%lld}\n",
               st.wall_s, static_cast<long long>(st.steps), st.sim_rate_hz(), 1.0 / w.params.dt,
               static_cast<long long>(st.overruns), static_cast<long long>(st.skipped_steps), st.step_median_ms,
               st.step_max_ms, static_cast<unsigned long long>(st.datagrams), st.tracker_hz,
               static_cast<unsigned long long>(st.parse.TotalErrors()), static_cast<unsigned long long>(st.rejected_senders),
               h.silences, h.recoveries, h.rate_changes, h.garbage_bursts, h.floods, h.rejected_bursts,
               st.tracker_state.c_str(), static_cast<unsigned long long>(st.published),
-              st.lcm_ok ? "true" : "false");
+              st.lcm_ok ? "true" : "false", rendering ? "true" : "false", static_cast<long long>(st.frames_drawn),
+              static_cast<long long>(st.frames_dropped));
   return kExitOk;
 }
 
@@ -104,6 +122,7 @@ void AddLiveCommand(CLI::App& app, int* exit_code) {
       ->check(CLI::Range(0.0, 1e5));
   cmd->add_option("--lcm-url", c->lcm_url, "LCM URL (default: the scene's, else LCM's default udpm)");
   cmd->add_flag("--quiet", c->quiet, "no status line");
+  AddRenderOptions(cmd, &c->render);
   cmd->callback([c, exit_code]() { *exit_code = Live(*c); });
 }
 

@@ -14,6 +14,7 @@
 
 #include "app/commands.h"
 #include "app/paths.h"
+#include "app/render_options.h"
 #include "app/tracked_sim.h"
 #include "app/tracker_app.h"
 #include "tracking/session_log.h"
@@ -28,6 +29,7 @@ struct ReplayOptions {
   double tail = 0.5;
   bool realtime = false;
   bool quiet = false;
+  RenderOptions render;  ///< --frames, --video, ... (docs/render.md): frames at fixed simulated times
 };
 
 void Row(std::ostream& o, double v) {
@@ -121,6 +123,14 @@ int Replay(const ReplayOptions& opt) {
   tracking::RecordedDatagram d;
   bool pending = reader.Next(&d);
   const bool tty = StdoutIsTerminal() && !opt.quiet;
+  // frames depend on the simulated state only (no wall times in the HUD): two
+  // replays of a log render identical frames
+  FrameRecorder recorder;
+  if (!recorder.Start(opt.render, sim->scene(), &error, ERecordMode::Headless, false)) {
+    std::fprintf(stderr, "replay: %s\n", error.c_str());
+    return kExitUsage;
+  }
+  char tracker_text[160] = "";
   using Clock = std::chrono::steady_clock;
   const auto t0 = Clock::now();
   int64_t step = 0;
@@ -145,6 +155,8 @@ int Replay(const ReplayOptions& opt) {
     if (opt.realtime)
       std::this_thread::sleep_until(t0 + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(w.time)));
     sim->Step();
+    if (recorder.FrameDue(w)) sim->HudText(tracker_text, sizeof tracker_text);
+    recorder.AfterStep(w, tracker_text);
     step_ms.push_back(1e3 * w.profile.total);
     if (1e3 * w.profile.total >= *std::max_element(step_ms.begin(), step_ms.end())) {
       slowest_detect = 1e3 * (w.profile.traverse + w.profile.interpenetration + w.profile.refit);
@@ -184,6 +196,10 @@ int Replay(const ReplayOptions& opt) {
   }
   const double wall = std::chrono::duration<double>(Clock::now() - t0).count();
   if (tty) std::printf("\n");
+  if (!recorder.Finish(&error)) {
+    std::fprintf(stderr, "replay: %s\n", error.c_str());
+    return kExitFailure;
+  }
   if (!reader.error().empty()) {
     std::fprintf(stderr, "replay: %s\n", reader.error().c_str());
     return kExitBadInput;
@@ -257,6 +273,7 @@ void AddReplayCommand(CLI::App& app, int* exit_code) {
       ->check(CLI::PositiveNumber);
   cmd->add_option("--tail", opt->tail, "seconds simulated after the last datagram")->check(CLI::Range(0.0, 1e6));
   cmd->add_flag("--quiet", opt->quiet, "no progress bar");
+  AddRenderOptions(cmd, &opt->render);
   cmd->callback([opt, exit_code]() { *exit_code = Replay(*opt); });
 }
 

@@ -9,6 +9,7 @@
 #include "app/commands.h"
 #include "app/fclib_io.h"
 #include "app/paths.h"
+#include "app/render_options.h"
 #include "app/run_report.h"
 #include "app/scene_file.h"
 
@@ -22,6 +23,7 @@ struct RunOptions {
   bool quiet = false;
   std::string export_fclib;  ///< folder for every step's contact problem (FCLIB)
   int export_every = 1;
+  RenderOptions render;  ///< --frames, --video, --size, --fps (docs/render.md)
 };
 
 // writes the last step's contact problem as DIR/step_NNNNNN.hdf5 (with its solution)
@@ -79,11 +81,17 @@ int Run(const RunOptions& opt) {
   const int tracked = built->tracked_body;
   const Vec3 start = tracked >= 0 ? w.bodies[tracked].pose.t : Vec3::Zero();
   double max_rise = 0.0, residual_max = 0.0;
+  FrameRecorder frames;
+  if (!frames.Start(opt.render, *built, &error)) {
+    std::fprintf(stderr, "graspsim run: %s\n", error.c_str());
+    return kExitUsage;
+  }
   const auto t1 = Clock::now();
   for (int64_t i = 0; i < steps; ++i) {
     built->script.Apply(w, w.time + w.params.dt);
     w.Step();
     records.push_back(RecordStep(w));
+    frames.AfterStep(w);
     if (!opt.export_fclib.empty() && w.step_count % opt.export_every == 0 &&
         !ExportStep(opt.export_fclib, built->name, w, &exported, &error)) {
       std::fprintf(stderr, "graspsim run: %s\n", error.c_str());
@@ -96,6 +104,10 @@ int Run(const RunOptions& opt) {
                   w.profile.contacts, w.profile.iterations, w.profile.residual, 1e3 * w.profile.total);
   }
   const double wall = std::chrono::duration<double>(Clock::now() - t1).count();
+  if (!frames.Finish(&error)) {
+    std::fprintf(stderr, "graspsim run: %s\n", error.c_str());
+    return kExitFailure;
+  }
   PrintPaperTables(records);
   if (!opt.export_fclib.empty())
     std::printf("exported %d contact problems (FCLIB) to %s\n", exported, opt.export_fclib.c_str());
@@ -140,6 +152,7 @@ void AddRunCommand(CLI::App& app, int* exit_code) {
   run->add_option("--export-every", opt->export_every, "with --export-fclib: every Nth step only")
       ->check(CLI::PositiveNumber);
   run->add_flag("--quiet", opt->quiet, "no progress lines");
+  AddRenderOptions(run, &opt->render);
   run->callback([opt, exit_code]() { *exit_code = Run(*opt); });
 }
 

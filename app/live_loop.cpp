@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <thread>
 
+#include "app/render_options.h"
 #include "app/tracker_app.h"
 #include "graspsim/contacts_t.hpp"
 #include "graspsim/poses_t.hpp"
@@ -164,7 +165,7 @@ double Percentile(std::vector<double> v, double p) {
 
 }  // namespace
 
-bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::string* error) {
+bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::string* error, FrameRecorder* frames) {
   World& w = sim.world();
   const tracking::TrackerConfig cfg = sim.config();
   tracking::UdpReceiver rx;
@@ -220,8 +221,10 @@ bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::str
   stats->latency_steps.reserve(200000);
   stats->latency_us.reserve(200000);
   const int64_t start_ns = SteadyNanoseconds() + 2 * period_ns;
+  if (frames && !frames->active()) frames = nullptr;
   std::thread sim_thread([&] {
     tracking::TargetSample s;
+    char tracker_text[160] = "";
     int64_t k = 0;          // step index on the schedule
     int64_t anchor = start_ns;
     SleepUntil(anchor);
@@ -249,6 +252,10 @@ bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::str
       if (publish_every && (w.step_count % publish_every) == 0) {
         TakeSnapshot(w, sim.follower(), &snap);
         snapshots.Write(snap);
+      }
+      if (frames) {
+        if (frames->FrameDue(w)) sim.HudText(tracker_text, sizeof tracker_text);
+        frames->AfterStep(w, tracker_text);
       }
       steps.fetch_add(1, std::memory_order_relaxed);
       ++k;
@@ -307,11 +314,16 @@ bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::str
     const double since = 1e-9 * static_cast<double>(now - last_status);
     if (opt.status && !opt.quiet && since >= (tty ? 0.25 : 5.0)) {
       const uint64_t n = datagrams.load();
-      std::printf("%s  t=%7.2f s  tracker %-9s %6.1f Hz  parse errors %llu  rejected %llu  step %.3f ms  overruns %lld  skipped %lld%s",
+      char render[80] = "";
+      if (frames)
+        std::snprintf(render, sizeof render, "  frames %d (%d dropped)", frames->frames_drawn(),
+                      frames->frames_dropped());
+      std::printf("%s  t=%7.2f s  tracker %-9s %6.1f Hz  parse errors %llu  rejected %llu  step %.3f ms  overruns %lld  skipped %lld%s%s",
                   tty ? "\r" : "", 1e-9 * static_cast<double>(now - start_ns), health.state(),
                   static_cast<double>(n - last_datagrams) / since, static_cast<unsigned long long>(parse_errors.load()),
                   static_cast<unsigned long long>(hc.rejected), last_step_ms.load(),
-                  static_cast<long long>(overruns.load()), static_cast<long long>(skipped.load()), tty ? "   " : "\n");
+                  static_cast<long long>(overruns.load()), static_cast<long long>(skipped.load()), render,
+                  tty ? "   " : "\n");
       status_pending = tty;
       std::fflush(stdout);
       last_status = now;
@@ -339,6 +351,10 @@ bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::str
   stats->step_median_ms = Percentile(step_ms, 0.5);
   stats->step_p99_ms = Percentile(step_ms, 0.99);
   stats->step_max_ms = step_ms.empty() ? 0.0 : *std::max_element(step_ms.begin(), step_ms.end());
+  if (frames) {
+    stats->frames_drawn = frames->frames_drawn();
+    stats->frames_dropped = frames->frames_dropped();
+  }
   return true;
 }
 

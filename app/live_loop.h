@@ -6,6 +6,9 @@
 //                     step, a snapshot into a second mailbox at the publish rate;
 //                     counts overruns (a step that ends after its deadline)
 //   calling thread    publishes snapshots on LCM and prints the status line
+//   render thread     (with --frames/--video) draws the frame snapshots the
+//                     simulation leaves in a fixed pool at the frame rate
+//                     (FrameRecorder, ERecordMode::Live); never waited for
 // The simulation thread never blocks on the others and does not allocate.
 #pragma once
 
@@ -48,11 +51,18 @@ struct LiveStats {
   /// step that applied it, and µs from arrival to the end of that step
   std::vector<int> latency_steps;
   std::vector<double> latency_us;
+  /// with rendering (--frames/--video): frames drawn, and frame times dropped
+  /// because the render thread was behind (the simulation never waits for it)
+  int64_t frames_drawn = 0, frames_dropped = 0;
   double sim_rate_hz() const { return wall_s > 0 ? static_cast<double>(steps) / wall_s : 0.0; }
 };
 
+class FrameRecorder;
+
 /// Runs until the duration ends or Ctrl-C. False with a message when the
-/// socket cannot be opened.
-bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::string* error);
+/// socket cannot be opened. `frames` (may be null): a started recorder in
+/// ERecordMode::Live, fed on the simulation thread at its frame times.
+bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::string* error,
+             FrameRecorder* frames = nullptr);
 
 }  // namespace gs::app

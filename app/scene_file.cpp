@@ -362,6 +362,7 @@ bool Parse(const YAML::Node& root, const std::string& file, Scene* s, std::vecto
     }
   }
   if (YAML::Node n = m.Raw("tracker")) ReadTrackerSection(n, file, s, errors);
+  if (YAML::Node n = m.Raw("camera")) ReadCameraSection(n, file, s, errors);
   m.Finish();
 
   // names: unique, and every reference resolves
@@ -523,6 +524,8 @@ bool BuildScene(const Scene& scene, BuiltScene* out, std::string* error) {
   out->script.Apply(w, 0.0);
   out->has_tracker = scene.has_tracker;
   out->tracker = scene.tracker;
+  out->has_camera = scene.has_camera;
+  out->camera = scene.camera;
   if (scene.has_tracker && !ResolveTracker(w, &out->tracker, error)) return false;
   for (Finger& f : w.hand.fingers) (void)f;
   return true;

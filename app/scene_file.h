@@ -38,6 +38,15 @@ struct SceneKeyframe {
   std::map<std::string, Pose> body_targets;     ///< per body
 };
 
+/// The scene's optional `camera:` section (docs/render.md); what is not given comes
+/// from the default framing of the hand and the objects.
+struct SceneCamera {
+  bool has_position = false, has_target = false;
+  Vec3 position = Vec3::Zero(), target = Vec3::Zero();  ///< m, world
+  Vec3 up = Vec3::UnitZ();
+  double fov_deg = 35.0;  ///< vertical
+};
+
 struct Scene {
   std::string file, name, description;
   WorldParams params;
@@ -53,6 +62,8 @@ struct Scene {
   std::vector<SceneKeyframe> script;
   bool has_tracker = false;          ///< a `tracker:` section (docs/tracking.md)
   tracking::TrackerConfig tracker;
+  bool has_camera = false;           ///< a `camera:` section (docs/render.md)
+  SceneCamera camera;
 };
 
 /// Parses and validates a scene; false with every error found.
@@ -69,7 +80,12 @@ struct BuiltScene {
   int tracked_body = -1;  ///< the first free body that is not a fingertip (reported in summaries)
   bool has_tracker = false;
   tracking::TrackerConfig tracker;  ///< with the fingertips' body indices resolved
+  bool has_camera = false;
+  SceneCamera camera;
 };
+
+/// The `camera:` section (app/render_options.cpp).
+void ReadCameraSection(const YAML::Node& node, const std::string& file, Scene* s, std::vector<SceneError>* errors);
 
 /// The `tracker:` section (app/scene_tracker.cpp); reads after the bodies.
 void ReadTrackerSection(const YAML::Node& node, const std::string& file, Scene* s, std::vector<SceneError>* errors);

@@ -16,6 +16,8 @@ class ScriptPlayer {
   void SetFingerJoints(int finger, double time, const Vec4& joints);
   void SetBodyTarget(int body, double time, const Pose& pose);
   bool empty() const { return hand_.empty() && fingers_.empty() && bodies_.empty(); }
+  /// The hand's keyframes (time, position), in time order.
+  const std::vector<std::pair<double, Vec3>>& hand_keys() const { return hand_; }
 
   /// Applies every channel at simulated time t to the world's inputs.
   void Apply(World& w, double t) const;

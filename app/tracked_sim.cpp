@@ -1,5 +1,7 @@
 #include "app/tracked_sim.h"
 
+#include <cstdio>
+
 namespace gs::app {
 
 bool TrackedSim::Load(const std::string& path, std::string* error) {
@@ -24,6 +26,23 @@ void TrackedSim::Ingest(const char* data, size_t size, bool truncated, tracking:
   }
   MapFrame(frame_, scene_->tracker, out);
   out->parse_errors = errors;
+}
+
+void TrackedSim::HudText(char* buf, size_t size) const {
+  if (size == 0) return;
+  const int n = follower_.size();
+  int tracking = 0;
+  for (int i = 0; i < n; ++i) tracking += follower_.state(i) == tracking::ETipState::Tracking;
+  int len = std::snprintf(buf, size, "%d/%d tracking", tracking, n);
+  const auto& tips = scene_->tracker.fingertips;
+  bool first = true;
+  for (int i = 0; i < n && len >= 0 && static_cast<size_t>(len) < size; ++i) {
+    if (follower_.state(i) == tracking::ETipState::Tracking) continue;
+    len += std::snprintf(buf + len, size - static_cast<size_t>(len), "%s %s %s", first ? ";" : ",",
+                         i < static_cast<int>(tips.size()) ? tips[i].name.c_str() : "?",
+                         tracking::TipStateName(follower_.state(i)));
+    first = false;
+  }
 }
 
 void TrackedSim::Step() {

@@ -23,6 +23,7 @@ class TrackedSim {
   const BuiltScene& scene() const { return *scene_; }
   const tracking::TrackerConfig& config() const { return scene_->tracker; }
   tracking::TargetFollower& follower() { return follower_; }
+  const tracking::TargetFollower& follower() const { return follower_; }
   const tracking::DTrackParser& parser() const { return parser_; }
 
   /// Parses one datagram and maps it to fingertip targets.
@@ -33,6 +34,10 @@ class TrackedSim {
 
   /// Couplings toward the targets at the end of the step, then one step.
   void Step();
+
+  /// The fingertips' states for a HUD, like "3/3 tracking" or "2/3 tracking;
+  /// middle lost" (no allocation: writes into buf).
+  void HudText(char* buf, size_t size) const;
 
  private:
   std::unique_ptr<BuiltScene> scene_;

@@ -11,6 +11,7 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libfclib-dev libhdf5-dev
   clang libclang-rt-14-dev
+  ffmpeg
 )
 # optional extras: the Siconos side-by-side benchmark, video output and plots
 if [ "${GRASPSIM_SETUP_MINIMAL:-0}" != 1 ]; then
