@@ -19,7 +19,7 @@ void AddStressCommand(CLI::App& app, int* exit_code) {
       "stress", "Numerical stress matrix: extreme stiffness, time step, mass ratio, contact count, penetration, "
                 "tracker teleports and NaNs, degenerate clouds, friction, a million steps");
   cmd->add_flag("--json", opt->json, "one JSON object per case (name, pass, figures), the last line a summary");
-  cmd->add_flag("--quick", opt->s.quick, "shortened runs (20,000 steps instead of a million), under 20 s");
+  cmd->add_flag("--quick", opt->s.quick, "shortened runs (100,000 steps instead of a million), under 20 s");
   cmd->add_option("--case", opt->filter, "run only the cases whose name contains TEXT");
   cmd->callback([opt, exit_code]() {
     std::string names;

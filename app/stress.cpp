@@ -8,6 +8,7 @@
 #include <memory>
 #include <random>
 
+#include "app/scene_checks.h"
 #include "core/fc_problem.h"
 #include "core/virtual_coupling.h"
 #include "core/world.h"
@@ -94,6 +95,9 @@ bool StateFinite(const World& w) {
     if (!b.pose.t.allFinite() || !b.pose.R.allFinite() || !b.velocity.allFinite() ||
         !b.angular_velocity.allFinite())
       return false;
+    if (b.drive.enabled && (!b.drive.target.t.allFinite() || !b.drive.target.R.allFinite() ||
+                            !b.drive.force.allFinite()))
+      return false;
     for (const Vec3& u : b.u)
       if (!u.allFinite()) return false;
   }
@@ -117,7 +121,7 @@ double PostSolveGap(const World& w, const ContactRow& row) {
       u += s.sign * (row.frame * b.pose.Rotate(d));
     }
   }
-  return u[0];
+  return u[0] - row.held_back;
 }
 
 // deepest deformed control point below any plane (m, >= 0)
@@ -158,6 +162,7 @@ struct CaseSpec {
   bool plane_check = true;          // count deformed control points below planes as penetration
   std::function<void(World&, int64_t)> before_step;  // scripted input
   std::function<bool(const World&, std::string*)> expect;
+  std::string refusal;  // when set, the scene is ill-posed: it must be refused with a message containing this
 };
 
 StressResult Run(World& w, const CaseSpec& c) {
@@ -166,6 +171,21 @@ StressResult Run(World& w, const CaseSpec& c) {
   r.what = c.what;
   r.penetration_limit = c.penetration_limit;
   r.energy_limit = c.energy_limit;
+  // ill-posed scenes are refused before the first step
+  const std::string why = IllPosedReason(w);
+  if (!why.empty() || !c.refusal.empty()) {
+    r.refused = !why.empty();
+    r.refusal = why;
+    r.pass = r.refused && why.find(c.refusal) != std::string::npos && !c.refusal.empty();
+    if (!r.refused) {
+      r.detail = "an ill-posed scene was not refused (expected: " + c.refusal + ")";
+    } else if (!r.pass) {
+      r.detail = "refused a scene that should run, or for the wrong reason";
+    } else {
+      r.detail = "refused as expected";
+    }
+    return r;
+  }
   const double e0 = PassiveEnergy(w);
   const int64_t check_every = c.residual_checks > 0 ? std::max<int64_t>(1, c.steps / c.residual_checks) : 0;
   const double tol = w.params.solver.tolerance;
@@ -254,13 +274,20 @@ StressResult CaseStiffness(const StressOptions& o, double K, const std::string& 
   // the drive's push has no potential: energy bounded by the work it can do over the ball's travel
   c.energy_limit = 1e-3;
   c.expect = [ball](const World& w, std::string* d) {
-    const double z = w.bodies[ball].pose.t.z();
-    char s[160];
-    std::snprintf(s, sizeof s, "ball centre at z = %.3f mm (radius 10 mm), |v| %.3g m/s", 1e3 * z,
-                  w.bodies[ball].velocity.norm());
+    const Body& b = w.bodies[ball];
+    double lowest = 1e300, umax = 0.0;
+    const std::vector<Vec3>& cp = b.geometry.tree.control_points();
+    for (size_t j = 0; j < cp.size(); ++j) {
+      lowest = std::min(lowest, b.pose.Apply(cp[j] + b.u[j]).z());
+      umax = std::max(umax, b.u[j].norm());
+    }
+    char s[200];
+    std::snprintf(s, sizeof s, "ball centre z %.3f mm (radius 10), largest deformation %.3g mm, lowest deformed "
+                  "control point %.3f mm above the plane, |v| %.3g m/s",
+                  1e3 * b.pose.t.z(), 1e3 * umax, 1e3 * lowest, b.velocity.norm());
     *d = s;
-    // it ends resting on the plane (sunk by its deformation at most), not flying away
-    return z > 0.0 && z < 0.0125 && w.bodies[ball].velocity.norm() < 0.05;
+    // it ends at rest on the plane: the deformed surface touches it, neither sunk nor floating
+    return lowest > -5e-4 && lowest < 5e-4 && b.velocity.norm() < 0.05;
   };
   return Run(*w, c);
 }
@@ -320,9 +347,10 @@ StressResult CaseTimeStep(const StressOptions& o, double dt, const std::string& 
   char what[200];
   std::snprintf(what, sizeof what, "two rigid boxes stacked, dropped 5 mm on a plane, dt = %g s, 0.5 s", dt);
   c.what = what;
-  c.steps = std::max<int64_t>(10, std::llround((o.tiny ? 0.1 : (o.quick ? 0.3 : 0.5)) / dt));
-  // penetration within the contact threshold plus what one step of gravity adds
-  c.penetration_limit = 5e-4 + kG * dt * dt;
+  c.steps = std::max<int64_t>(10, std::llround((o.tiny ? 0.1 : (o.quick ? 0.2 : 0.5)) / dt));
+  // penetration within the contact threshold plus one step of travel at the impact speed
+  c.penetration_limit = 5e-4 + (std::sqrt(2.0 * kG * 0.005) + kG * dt) * dt;
+  if (dt >= 0.05) c.refusal = "time step";
   c.expect = [=](const World& w, std::string* d) {
     const double zl = w.bodies[low].pose.t.z(), zh = w.bodies[high].pose.t.z();
     char s[160];
@@ -337,8 +365,11 @@ StressResult CaseTimeStep(const StressOptions& o, double dt, const std::string& 
 StressResult CaseMassRatio(const StressOptions& o, double ratio, const std::string& name) {
   auto w = std::make_unique<World>();
   std::string refusal;
-  w->params.solver.max_iterations = 300;
-  Add(*w, Plane(), &refusal);
+    Add(*w, Plane(), &refusal);
+  // Gauss-Seidel converges slowly on a heavy body over a light one: at a 300-sweep
+  // cap the unconverged normal forces lift the 1 kg box by ~2 mm (+16 mJ, reported
+  // in docs/benchmarks.md); 3000 sweeps keep it down
+  w->params.solver.max_iterations = 3000;
   // top / bottom = ratio: 1 g on 1 kg (1e-3) or 1 kg on 1 g (1e3)
   const double m_low = ratio < 1 ? 1.0 : 1e-3, m_high = ratio < 1 ? 1e-3 : 1.0;
   int low = -1, high = -1;
@@ -352,7 +383,7 @@ StressResult CaseMassRatio(const StressOptions& o, double ratio, const std::stri
   std::snprintf(what, sizeof what, "box of %g kg resting on a box of %g kg on a plane (mass ratio %g)",
                 w->bodies[high].mass, w->bodies[low].mass, ratio);
   c.what = what;
-  c.steps = Steps(o, 1000, 400, 150);
+  c.steps = Steps(o, 1000, 250, 100);
   c.expect = [=](const World& w, std::string* d) {
     const double zl = w.bodies[low].pose.t.z(), zh = w.bodies[high].pose.t.z();
     char s[160];
@@ -370,7 +401,7 @@ StressResult CaseManyContacts(const StressOptions& o, const std::string& name) {
   w->params.solver.max_iterations = 100;
   Add(*w, Plane(), &refusal);
   const int cps = o.tiny ? 2600 : 5000;
-  BodySpec s = Box("slab", Vec3(0.06, 0.06, 0.004), 4 * cps, cps, 0.3, Vec3(0, 0, 0.0041));
+  BodySpec s = Box("slab", Vec3(0.06, 0.06, 0.004), 3 * cps, cps, 0.3, Vec3(0, 0, 0.0041));
   s.deformation.model = EDeformation::Gaussian;
   s.deformation.stiffness = 2000;
   s.deformation.damping = 0.5;
@@ -382,7 +413,7 @@ StressResult CaseManyContacts(const StressOptions& o, const std::string& name) {
   c.name = name;
   c.what = "deformable slab 12 x 12 cm with " + std::to_string(cps) + " control points lying on a plane";
   c.steps = Steps(o, 200, 40, 8);
-  c.residual_checks = o.tiny ? 0 : 1;
+  c.residual_checks = o.tiny || o.quick ? 0 : 1;  // assembling W of 2,000 coupled contacts takes seconds
   c.expect = [=](const World& w, std::string* d) {
     char s[160];
     std::snprintf(s, sizeof s, "%d contacts at the end; slab z %.3f mm", w.profile.contacts,
@@ -423,6 +454,8 @@ StressResult CaseDeepPenetration(const StressOptions& o, bool boxes, const std::
   c.steps = Steps(o, 1000, 400, 150);
   // the initial overlap must not grow
   c.penetration_limit = depth + 1e-4;
+  // overlap deeper than a leaf between two point-based bodies cannot be resolved
+  if (boxes) c.refusal = "start overlapping";
   // pushing out may not launch the body: at most what the overlap stores as gravity work, with a margin
   c.energy_limit = 0.02;
   c.expect = [=](const World& w, std::string* d) {
@@ -628,18 +661,21 @@ StressResult CaseFriction(const StressOptions& o, double mu, const std::string& 
   std::string refusal;
   w->params.default_friction = mu;
   w->params.solver.max_iterations = 300;
-  const double angle = (mu == 0.0 ? 20.0 : 80.0) * M_PI / 180.0;
+  // mu = 10: a flat slab (a cube topples beyond 45 degrees), tilted 75 degrees (atan 10 = 84.3)
+  const double angle = (mu == 0.0 ? 20.0 : 75.0) * M_PI / 180.0;
+  const Vec3 half = mu == 0.0 ? Vec3::Constant(0.02) : Vec3(0.03, 0.03, 0.004);
   const Pose plane = Pose::FromAxisAngle(Vec3::UnitY(), angle);
   Add(*w, Plane(plane), &refusal);
-  BodySpec b = Box("block", Vec3::Constant(0.02), o.tiny ? 1500 : 3000, o.tiny ? 250 : 400, 0.1, Vec3::Zero());
-  b.pose = Pose{plane.R, plane.Apply(Vec3(0, 0, 0.0203))};
+  BodySpec b = Box("block", half, o.tiny ? 1500 : 3000, o.tiny ? 250 : 400, 0.1, Vec3::Zero());
+  b.pose = Pose{plane.R, plane.Apply(Vec3(0, 0, half.z() + 3e-4))};
   int block = -1;
   Add(*w, b, &refusal, &block);
   w->Finalize();
   CaseSpec c;
   c.name = name;
   char what[160];
-  std::snprintf(what, sizeof what, "box on a plane tilted %.0f degrees, mu = %g", angle * 180 / M_PI, mu);
+  std::snprintf(what, sizeof what, "%s on a plane tilted %.0f degrees, mu = %g", mu == 0.0 ? "cube" : "6 x 6 x 0.8 cm slab",
+                angle * 180 / M_PI, mu);
   c.what = what;
   c.steps = Steps(o, 1000, 500, 200);
   // sliding converts potential into kinetic energy: E stays constant (mu = 0) or drops
@@ -681,7 +717,7 @@ StressResult CaseLongRun(const StressOptions& o, const std::string& name) {
   w->Finalize();
   CaseSpec c;
   c.name = name;
-  c.steps = Steps(o, 1000000, 20000, 2000);
+  c.steps = Steps(o, 1000000, 100000, 2000);
   c.what = "box resting on a plane for " + std::to_string(c.steps) + " steps of 1 ms" +
            (c.steps < 1000000 ? " (a million in the full run)" : "");
   c.residual_checks = 2;

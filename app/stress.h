@@ -27,7 +27,7 @@
 namespace gs::app {
 
 struct StressOptions {
-  bool quick = false;  ///< shortened runs (the million steps become 20,000): graspsim stress --quick
+  bool quick = false;  ///< shortened runs (the million steps become 100,000): graspsim stress --quick
   bool tiny = false;   ///< shorter still and coarser (the test suite under sanitizers)
 };
 
