@@ -23,6 +23,8 @@ void AddBenchCommand(CLI::App& app, int* exit_code) {
       RunBenchTracking);
   add("solver", "our NSGS against Siconos NSGS and PROX: time to reach error 1e-6 on the same problems",
       RunBenchSolver);
+  add("scaling", "step time against contacts (50 to 2,000) and points per object (10,000 to 500,000), fitted slopes",
+      RunBenchScaling);
 }
 
 }  // namespace gs::app

@@ -15,6 +15,7 @@ packages=(
 # optional extras: the Siconos side-by-side benchmark, video output and plots
 if [ "${GRASPSIM_SETUP_MINIMAL:-0}" != 1 ]; then
   packages+=(libsiconos-numerics-dev)
+  packages+=(gnuplot-nox)  # graspsim bench tradeoff --plot
 fi
 
 missing=()
