@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cmath>
+#include <string>
 
 #include "core/sampling.h"
 
@@ -11,6 +12,7 @@ namespace gs::app {
 struct BenchOptions {
   bool json = false;
   bool quick = false;  ///< fewer repetitions (used by the tests)
+  std::string plot_dir;  ///< bench tradeoff: write CSV and PNG plots here when set
 };
 
 int RunBenchCollision(const BenchOptions& opt);
@@ -20,6 +22,7 @@ int RunBenchTracking(const BenchOptions& opt);
 int RunBenchSolver(const BenchOptions& opt);
 int RunBenchSoak(const BenchOptions& opt);
 int RunBenchRender(const BenchOptions& opt);
+int RunBenchScaling(const BenchOptions& opt);
 
 /// Accuracy of MLS projections of points near a sampled shape (errors in spacings).
 struct MlsAccuracy {

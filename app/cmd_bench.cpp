@@ -26,6 +26,8 @@ void AddBenchCommand(CLI::App& app, int* exit_code) {
   add("soak", "a million steps of a looped tracker session holding the box: memory growth, drift, NaN (--quick: 50,000)",
       RunBenchSoak);
   add("render", "ms per frame for the paper grasp at 640x480 and 1280x720 (target 33 ms at 640x480)", RunBenchRender);
+  add("scaling", "step time against contacts (50 to 2,000) and points per object (10,000 to 500,000), fitted slopes",
+      RunBenchScaling);
 }
 
 }  // namespace gs::app

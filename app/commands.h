@@ -25,5 +25,7 @@ void AddRecordCommand(CLI::App& app, int* exit_code);
 void AddSendCommand(CLI::App& app, int* exit_code);
 void AddReplayCommand(CLI::App& app, int* exit_code);
 void AddLiveCommand(CLI::App& app, int* exit_code);
+// stress and scaling (issue 6)
+void AddStressCommand(CLI::App& app, int* exit_code);
 
 }  // namespace gs::app

@@ -109,6 +109,8 @@ void BuildContactSpace(World& w) {
     }
     row.world_point = 0.5 * (world_pt[0] + world_pt[1]);
     row.q = Vec3(c.gap, t1.dot(slip), t2.dot(slip));
+    row.gap_start = c.gap - n.dot(slip);  // the free motion's share taken out; deformation added below
+    row.held_back = 0.0;
     row.mu = w.Friction(c.body[0], c.body[1]);
     w.rows.push_back(row);
   }
@@ -152,9 +154,16 @@ void BuildContactSpace(World& w) {
       gap_def += side.sign * c.normal.dot(uf);
       // the rigid motion of the displaced point is in the rigid part (J at anchor + u)
       slip_def += side.sign * (uf - up);
+      row.gap_start += side.sign * c.normal.dot(up);
     }
     // normal: position-level gap after free motion (eq. 6); tangents: free slip over the step
     row.q += Vec3(gap_def, row.frame.row(1).dot(slip_def), row.frame.row(2).dot(slip_def));
+    // an overlap present at the start of the step is removed at a bounded speed:
+    // the solver sees the rest of it as allowed for this step
+    if (w.params.max_push_out_speed > 0.0) {
+      row.held_back = std::max(0.0, -row.gap_start - w.params.max_push_out_speed * w.params.dt);
+      row.q[0] += row.held_back;
+    }
     row.r.setZero();
     // warm start: the previous world force of the same key, in the new frame
     const auto it = std::lower_bound(w.warm_prev.begin(), w.warm_prev.end(), c.key,

@@ -23,6 +23,8 @@ Vec3 Clamped(const Vec3& v, double max_norm) {
 }  // namespace
 
 void SetCouplingTarget(Body& b, const Vec3& gravity, const CouplingParams& p, const Pose& target, const Vec3& velocity) {
+  // a non-finite target (a corrupt tracker sample) is ignored: the drive keeps its last target
+  if (!target.t.allFinite() || !target.R.allFinite() || !velocity.allFinite()) return;
   SetGains(b, p, true);
   Drive& d = b.drive;
   // the spring force K (x_t - x) stays within max_force

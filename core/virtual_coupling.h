@@ -26,6 +26,7 @@ struct CouplingParams {
 };
 
 /// Points the body's drive at `target`, which moves with `velocity` (m/s, world).
+/// A target or velocity that is not finite is ignored (the drive is left as it was).
 void SetCouplingTarget(Body& b, const Vec3& gravity, const CouplingParams& p, const Pose& target, const Vec3& velocity);
 
 /// A limp coupling: no spring, only damping toward rest (and gravity compensation):

@@ -126,6 +126,8 @@ struct ContactRow {
   Vec3 q;           ///< free gap (normal) and free slip (tangents) (m)
   Vec3 r;           ///< force (N) in the frame
   double mu = 0.0;
+  double gap_start = 0.0;  ///< normal gap at the start of the step, deformation included (m)
+  double held_back = 0.0;  ///< part of an overlap present at the step's start left for later steps (m), see max_push_out_speed
 };
 
 struct WorldParams {
@@ -136,6 +138,11 @@ struct WorldParams {
   NsgsParams solver;
   int max_contacts = 8192;
   double default_friction = 0.8;
+  /// m/s: an overlap already present at the start of a step (a body placed inside
+  /// another, a teleport) is pushed out at most this fast, so that it cannot launch
+  /// the body (a 4 mm overlap removed in one 1 ms step would leave at 4 m/s).
+  /// Overlap made by the step's own free motion is always removed at once.
+  double max_push_out_speed = 0.1;
 };
 
 /// Per-stage times of the last step (s), in the layout of the paper's Figures 6 and 7.

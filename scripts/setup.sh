@@ -18,6 +18,7 @@ if [ "${GRASPSIM_SETUP_MINIMAL:-0}" != 1 ]; then
   packages+=(libsiconos-numerics-dev)
   # the mesh import test walks every model of assimp's own test suite
   packages+=(assimp-testmodels)
+  packages+=(gnuplot-nox)  # graspsim bench tradeoff --plot
 fi
 
 missing=()
