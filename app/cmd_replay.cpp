@@ -16,6 +16,7 @@
 #include "app/paths.h"
 #include "app/render_options.h"
 #include "app/tracked_sim.h"
+#include "app/run_report.h"
 #include "app/tracker_app.h"
 #include "tracking/session_log.h"
 
@@ -236,7 +237,7 @@ int Replay(const ReplayOptions& opt) {
        << ",\"dt_s\":" << dt << ",\"simulated_s\":" << w.time << ",\"parse_errors\":" << ps.TotalErrors()
        << ",\"parse_errors_by_category\":" << ParseErrorsJson(ps) << ",\"rejected_steps\":" << w.rejected_steps
        << ",\"unconverged_steps\":" << w.unconverged_steps << ",\"max_coupling_force_N\":" << max_coupling
-       << ",\"max_penetration_m\":" << max_penetration;
+       << ",\"max_penetration_m\":" << max_penetration << ",\"state_hash\":\"" << StateHashHex(w) << "\"";
     if (tracked >= 0)
       js << ",\"tracked_body\":\"" << w.bodies[tracked].name << "\",\"max_rise_m\":" << max_rise
          << ",\"lifted_s\":" << lifted_time << ",\"lifted\":" << (lifted ? "true" : "false") << ",\"final_position_m\":["

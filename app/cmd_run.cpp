@@ -123,7 +123,8 @@ int Run(const RunOptions& opt) {
     std::ostringstream js;
     js << "{\"scene\":\"" << built->name << "\",\"steps\":" << steps << ",\"dt_s\":" << w.params.dt
        << ",\"simulated_s\":" << duration << ",\"wall_s\":" << wall << ",\"rejected_steps\":" << w.rejected_steps
-       << ",\"unconverged_steps\":" << w.unconverged_steps << ",\"residual_max\":" << residual_max;
+       << ",\"unconverged_steps\":" << w.unconverged_steps << ",\"residual_max\":" << residual_max
+       << ",\"state_hash\":\"" << StateHashHex(w) << "\"";
     if (tracked >= 0)
       js << ",\"tracked_body\":\"" << w.bodies[tracked].name << "\",\"max_rise_m\":" << max_rise
          << ",\"final_position_m\":[" << w.bodies[tracked].pose.t.x() << "," << w.bodies[tracked].pose.t.y() << ","

@@ -131,4 +131,38 @@ void PrintPaperTables(const std::vector<StepRecord>& steps) {
               Max(step));
 }
 
+namespace {
+struct Fnv {
+  uint64_t h = 1469598103934665603ull;
+  void Bytes(const void* p, size_t n) {
+    const unsigned char* c = static_cast<const unsigned char*>(p);
+    for (size_t i = 0; i < n; ++i) h = (h ^ c[i]) * 1099511628211ull;
+  }
+  template <class M>
+  void Eig(const M& m) {
+    Bytes(m.data(), sizeof(double) * static_cast<size_t>(m.size()));
+  }
+};
+}  // namespace
+
+uint64_t StateHash(const World& w) {
+  Fnv f;
+  for (const Body& b : w.bodies) {
+    f.Eig(b.pose.t);
+    f.Eig(b.pose.R);
+    f.Eig(b.velocity);
+    f.Eig(b.angular_velocity);
+    for (const Vec3& u : b.u) f.Eig(u);
+  }
+  for (const Finger& g : w.hand.fingers) f.Eig(g.q);
+  for (const ContactRow& r : w.rows) f.Eig(r.r);
+  return f.h;
+}
+
+std::string StateHashHex(const World& w) {
+  char buf[24];
+  std::snprintf(buf, sizeof(buf), "%016llx", static_cast<unsigned long long>(StateHash(w)));
+  return buf;
+}
+
 }  // namespace gs::app

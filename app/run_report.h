@@ -24,6 +24,12 @@ StepRecord RecordStep(const World& w);
 bool WriteRunOutputs(const std::string& dir, const std::string& scene_name, const std::vector<StepRecord>& steps,
                      const std::string& summary_json, std::string* error);
 
+/// FNV-1a over the bits of the world's state (poses, velocities, control-point
+/// displacements, finger joints, contact forces): equal hashes mean bit-identical
+/// runs. Written to summary.json as state_hash by run and replay.
+uint64_t StateHash(const World& w);
+std::string StateHashHex(const World& w);
+
 /// Prints the paper's Figure 6 and Figure 7 tables: medians and maxima of the
 /// steps with contacts, beside the paper's numbers (its deepest grasp, step 3).
 void PrintPaperTables(const std::vector<StepRecord>& steps);
