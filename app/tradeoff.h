@@ -44,7 +44,8 @@ std::vector<TradeoffRow> RunTradeoff(const TradeoffOptions& opt, void (*progress
 /// Sets `pareto` within each series (knob, variant, error_name).
 void MarkPareto(std::vector<TradeoffRow>* rows);
 /// Writes DIR/tradeoff.csv and, when gnuplot is found, one PNG per series
-/// (DIR/tradeoff_<knob>[_<variant>]_<error>.png): time against error, log-log,
+/// (DIR/tradeoff_<knob>[_<variant>]_<error>.png) and all of them in DIR/tradeoff_overview.png:
+/// time against error, log-log,
 /// each point labelled with its setting, the Pareto front drawn. False with
 /// *error set when the directory cannot be written or gnuplot is missing or
 /// fails (the CSV is written first in every case it can be). *pngs receives

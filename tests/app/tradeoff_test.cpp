@@ -148,8 +148,9 @@ TEST(TradeoffCli, CsvAndPlotsOfOneKnob) {
   }
   ASSERT_EQ(rc, 0) << text;
   EXPECT_NE(text.find("\"bench\":\"tradeoff\""), std::string::npos) << text;
-  EXPECT_NE(text.find("\"plots\":2"), std::string::npos) << text;
-  for (const char* png : {"/tradeoff_bandwidth_plane_mls_projection.png", "/tradeoff_bandwidth_quadric_mls_projection.png"}) {
+  EXPECT_NE(text.find("\"plots\":3"), std::string::npos) << text;
+  for (const char* png : {"/tradeoff_bandwidth_plane_mls_projection.png", "/tradeoff_bandwidth_quadric_mls_projection.png",
+                          "/tradeoff_overview.png"}) {
     const std::string head = ReadAll(dir + png).substr(0, 8);
     EXPECT_EQ(head, std::string("\x89PNG\r\n\x1a\n", 8)) << png;
   }
