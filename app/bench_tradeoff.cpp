@@ -713,7 +713,8 @@ bool WriteTradeoffOutputs(const std::string& dir, const std::vector<TradeoffRow>
                  png.c_str(), r0.knob.c_str(), r0.variant.empty() ? "" : " / ", r0.variant.c_str(), r0.error_name.c_str(),
                  r0.error_name.c_str(), JsonEscape(r0.error_unit).c_str(), JsonEscape(r0.time_what).c_str(), dat.c_str());
     written.push_back(png);
-    overview += "set title \"" + r0.knob + (r0.variant.empty() ? "" : " / " + r0.variant) + "\"\nset xlabel \"" +
+    overview += "set title \"" + r0.knob + (r0.variant.empty() ? "" : " / " + r0.variant) + ": " + r0.error_name +
+                "\"\nset xlabel \"" +
                 r0.error_name + " (" + JsonEscape(r0.error_unit) + ")\"\nplot '" + dat +
                 "' using 1:2 with points pt 7 lc rgb '#7f7f7f' notitle, '' using ($3==1?$1:1/0):2 with linespoints "
                 "lw 2 pt 7 lc rgb '#d62728' notitle, '' using 1:2:4 with labels offset 1,0.5 font ',8' notitle\n";
