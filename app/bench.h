@@ -13,6 +13,7 @@ struct BenchOptions {
   bool json = false;
   bool quick = false;  ///< fewer repetitions (used by the tests)
   std::string plot_dir;  ///< bench tradeoff: write CSV and PNG plots here when set
+  std::string knob;      ///< bench tradeoff: sweep only this knob when set
 };
 
 int RunBenchCollision(const BenchOptions& opt);
@@ -23,6 +24,7 @@ int RunBenchSolver(const BenchOptions& opt);
 int RunBenchSoak(const BenchOptions& opt);
 int RunBenchRender(const BenchOptions& opt);
 int RunBenchScaling(const BenchOptions& opt);
+int RunBenchTradeoff(const BenchOptions& opt);
 
 /// Accuracy of MLS projections of points near a sampled shape (errors in spacings).
 struct MlsAccuracy {

@@ -3,6 +3,7 @@
 
 #include "app/bench.h"
 #include "app/commands.h"
+#include "app/tradeoff.h"
 
 namespace gs::app {
 
@@ -15,6 +16,7 @@ void AddBenchCommand(CLI::App& app, int* exit_code) {
     sub->add_flag("--json", opt->json, "one JSON object per line; the last holds the headline figures");
     sub->add_flag("--quick", opt->quick, "fewer repetitions");
     sub->callback([opt, exit_code, fn]() { *exit_code = fn(*opt); });
+    return sub;
   };
   add("collision", "the paper's Figure 6: collision detection at three grasp depths", RunBenchCollision);
   add("step", "the whole time step on the paper grasp at its deepest (target 1 ms median)", RunBenchStep);
@@ -28,6 +30,14 @@ void AddBenchCommand(CLI::App& app, int* exit_code) {
   add("render", "ms per frame for the paper grasp at 640x480 and 1280x720 (target 33 ms at 640x480)", RunBenchRender);
   add("scaling", "step time against contacts (50 to 2,000) and points per object (10,000 to 500,000), fitted slopes",
       RunBenchScaling);
+  CLI::App* tradeoff = add("tradeoff",
+                            "run time against error for every knob (points, control points, bandwidth, GS tolerance "
+                            "and cap, dt), Pareto fronts",
+                            RunBenchTradeoff);
+  tradeoff->add_option("--plot", opt->plot_dir, "write DIR/tradeoff.csv and one PNG per series (needs gnuplot)")
+      ->type_name("DIR");
+  tradeoff->add_option("--knob", opt->knob, "sweep only this knob")
+      ->check(CLI::IsMember(TradeoffKnobs()));
 }
 
 }  // namespace gs::app
