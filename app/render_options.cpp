@@ -71,7 +71,7 @@ render::Camera SceneOrDefaultCamera(const BuiltScene& scene, const SnapshotRig& 
   const auto& keys = scene.script.hand_keys();
   for (const auto& k : keys) sweep.push_back(k.second - keys.front().second);
   const SceneCamera& c = scene.camera;
-  render::Camera cam = render::DefaultCamera(rig, s, scene.has_camera ? c.fov_deg : 35.0, 1.15, sweep);
+  render::Camera cam = render::DefaultCamera(rig, s, scene.has_camera ? c.fov_deg : 35.0, 1.0, sweep);
   if (!scene.has_camera) return cam;
   const Vec3 offset = cam.position - cam.target;
   if (c.has_target) cam.target = c.target;
