@@ -1,7 +1,6 @@
 // The render options, the scene's camera section and the render thread.
 #include "app/render_options.h"
 
-#include <sched.h>
 #include <sys/resource.h>
 #include <sys/syscall.h>
 #include <unistd.h>
@@ -240,12 +239,11 @@ void FrameRecorder::Loop() {
   // live: below the simulation thread; llvmpipe's threads, made with the
   // context, inherit the policy
   if (mode_ == ERecordMode::Live) {
-    // SCHED_IDLE: runs only on time the simulation (and everything else) leaves
-    // over; falls back to nice 19 where the policy is refused
-    sched_param none{};
-    none.sched_priority = 0;
-    if (sched_setscheduler(static_cast<pid_t>(syscall(SYS_gettid)), SCHED_IDLE, &none) != 0)
-      setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), 19);
+    // nice 10: a CPU share of about a tenth of a normal thread's when they
+    // compete, so the simulation thread comes first; not SCHED_IDLE, which
+    // starves rendering outright on a busy machine (frames of seconds, and a
+    // live that waits minutes at exit for its queued frames)
+    setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), 10);
   }
   render::Renderer renderer;
   std::string err;
