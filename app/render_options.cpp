@@ -7,6 +7,7 @@
 
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 
 #include "render/frame_sink.h"
@@ -162,6 +163,11 @@ bool FrameRecorder::Start(const RenderOptions& opt, const BuiltScene& scene, std
   queue_.clear();
   pool_.clear();
   if (mode_ == ERecordMode::Live) {
+    // llvmpipe rasterises on one thread instead of one per core, so that on a
+    // 2-core machine rendering leaves a core to the 1 kHz simulation thread (read
+    // once, when the first context is made on the render thread; a value the user
+    // set wins)
+    setenv("LP_NUM_THREADS", "1", 0);
     // every buffer the simulation thread touches gets its capacity now
     constexpr int kPool = 4;
     first->contacts.reserve(static_cast<size_t>(std::max(w.params.max_contacts, 1)));
