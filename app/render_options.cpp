@@ -1,13 +1,13 @@
 // The render options and the render thread (the scene's camera section is read in scene_camera.cpp).
 #include "app/render_options.h"
 
-#include <sched.h>
 #include <sys/resource.h>
 #include <sys/syscall.h>
 #include <unistd.h>
 
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 
 #include "render/frame_sink.h"
@@ -53,7 +53,7 @@ render::Camera SceneOrDefaultCamera(const BuiltScene& scene, const SnapshotRig& 
   const auto& keys = scene.script.hand_keys();
   for (const auto& k : keys) sweep.push_back(k.second - keys.front().second);
   const SceneCamera& c = scene.camera;
-  render::Camera cam = render::DefaultCamera(rig, s, scene.has_camera ? c.fov_deg : 35.0, 1.15, sweep);
+  render::Camera cam = render::DefaultCamera(rig, s, scene.has_camera ? c.fov_deg : 35.0, 1.0, sweep);
   if (!scene.has_camera) return cam;
   const Vec3 offset = cam.position - cam.target;
   if (c.has_target) cam.target = c.target;
@@ -145,6 +145,11 @@ bool FrameRecorder::Start(const RenderOptions& opt, const BuiltScene& scene, std
   queue_.clear();
   pool_.clear();
   if (mode_ == ERecordMode::Live) {
+    // llvmpipe rasterises on one thread instead of one per core, so that on a
+    // 2-core machine rendering leaves a core to the 1 kHz simulation thread (read
+    // once, when the first context is made on the render thread; a value the user
+    // set wins)
+    setenv("LP_NUM_THREADS", "1", 0);
     // every buffer the simulation thread touches gets its capacity now
     constexpr int kPool = 4;
     first->contacts.reserve(static_cast<size_t>(std::max(w.params.max_contacts, 1)));
@@ -222,12 +227,11 @@ void FrameRecorder::Loop() {
   // live: below the simulation thread; llvmpipe's threads, made with the
   // context, inherit the policy
   if (mode_ == ERecordMode::Live) {
-    // SCHED_IDLE: runs only on time the simulation (and everything else) leaves
-    // over; falls back to nice 19 where the policy is refused
-    sched_param none{};
-    none.sched_priority = 0;
-    if (sched_setscheduler(static_cast<pid_t>(syscall(SYS_gettid)), SCHED_IDLE, &none) != 0)
-      setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), 19);
+    // nice 10: a CPU share of about a tenth of a normal thread's when they
+    // compete, so the simulation thread comes first; not SCHED_IDLE, which
+    // starves rendering outright on a busy machine (frames of seconds, and a
+    // live that waits minutes at exit for its queued frames)
+    setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), 10);
   }
   render::Renderer renderer;
   std::string err;

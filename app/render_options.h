@@ -56,7 +56,7 @@ enum class ERecordMode {
   /// live: a fixed pool of snapshots made before the loop; the simulation
   /// thread never blocks nor allocates: a frame whose time comes while every
   /// snapshot is still queued is dropped (counted), and the render thread runs
-  /// at the idle scheduling priority (SCHED_IDLE) with its llvmpipe threads
+  /// at nice 10 with its llvmpipe thread (one: LP_NUM_THREADS=1 unless set)
   Live,
 };
 

@@ -89,7 +89,9 @@ Camera DefaultCamera(const SnapshotRig& rig, const WorldSnapshot& s, double fov_
   const Vec3 centre = 0.5 * (lo + hi);
   const double radius = std::max(0.5 * (hi - lo).norm(), 1e-3);
   const double dist = margin * radius / std::sin(0.5 * fov_deg * M_PI / 180.0);
-  const Vec3 dir = Vec3(0.6, -1.0, 0.6).normalized();
+  // from the front (-y), a little to the right and above: in the paper's grasp the
+  // thumb (-x) and the two fingers (+x) press on the faces seen edge-on left and right
+  const Vec3 dir = Vec3(0.12, -1.0, 0.4).normalized();
   cam.target = centre;
   cam.position = centre + dist * dir;
   return cam;

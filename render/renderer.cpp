@@ -108,6 +108,31 @@ void DrawBall(const Vec3& c, double radius) {
   }
 }
 
+// a finger's links as cylinders and its joints as balls, sized from the link
+// lengths; `lit`: with the link and joint materials, else in the current colour
+void DrawLinks(const FingerState& f, bool lit) {
+  const double reach = (f.points[1] - f.points[0]).norm() + (f.points[2] - f.points[1]).norm() +
+                       (f.points[3] - f.points[2]).norm();
+  const double radius = std::clamp(0.07 * reach, 1e-4, 0.05);
+  const float link[4] = {0.55f, 0.58f, 0.64f, 1.0f}, joint[4] = {0.35f, 0.37f, 0.42f, 1.0f};
+  if (lit) glMaterialfv(GL_FRONT_AND_BACK, GL_AMBIENT_AND_DIFFUSE, link);
+  for (int i = 0; i < 3; ++i) DrawCylinder(f.points[i], f.points[i + 1], radius);
+  if (lit) glMaterialfv(GL_FRONT_AND_BACK, GL_AMBIENT_AND_DIFFUSE, joint);
+  for (int i = 0; i < 3; ++i) DrawBall(f.points[i], 1.3 * radius);
+}
+
+constexpr size_t kShadowStride = 4;
+
+// projects points onto the plane through o with normal n along direction l
+// (towards the light): p - ((p - o).n / l.n) l, as a 4x4 matrix
+Mat4 ShadowMatrix(const Vec3& o, const Vec3& n, const Vec3& l) {
+  const double ln = l.dot(n);
+  Mat4 m = Mat4::Identity();
+  m.block<3, 3>(0, 0) -= l * n.transpose() / ln;
+  m.block<3, 1>(0, 3) = l * (o.dot(n) / ln);
+  return m;
+}
+
 // one arrow from a along d: a shaft and a two-stroke head facing the camera
 void Arrow(const Vec3& a, const Vec3& d, const Camera& cam) {
   const double len = d.norm();
@@ -150,7 +175,7 @@ bool Renderer::Init(int width, int height, std::string* error) {
   // no shader cache in ~/.cache: every frame's shaders are few and cheap to compile
   setenv("MESA_SHADER_CACHE_DISABLE", "true", 0);
   ctx_ = std::make_unique<Context>();
-  ctx_->ctx = OSMesaCreateContextExt(OSMESA_RGBA, 24, 0, 0, nullptr);
+  ctx_->ctx = OSMesaCreateContextExt(OSMESA_RGBA, 24, 8, 0, nullptr);
   if (!ctx_->ctx) {
     *error = "OSMesa: cannot create an off-screen GL context (is libosmesa6 installed?)";
     return false;
@@ -197,7 +222,8 @@ const Image& Renderer::Draw(const SnapshotRig& rig, const WorldSnapshot& s, cons
   OSMesaPixelStore(OSMESA_Y_UP, 0);
   glViewport(0, 0, W, H);
   glClearColor(0.92f, 0.94f, 0.97f, 1.0f);
-  glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+  glClearStencil(0);
+  glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT | GL_STENCIL_BUFFER_BIT);
   glEnable(GL_DEPTH_TEST);
   glMatrixMode(GL_PROJECTION);
   const Mat4 P = cam.Projection(double(W) / H);
@@ -219,22 +245,68 @@ const Image& Renderer::Draw(const SnapshotRig& rig, const WorldSnapshot& s, cons
   glLightModelfv(GL_LIGHT_MODEL_AMBIENT, amb);
   const Mat4 V = cam.View();
   glLoadMatrixd(V.data());
+  const Vec3 view_dir = (cam.target - cam.position).normalized();
 
   // planes first
   for (size_t b = 0; b < rig.bodies.size() && b < s.bodies.size(); ++b)
     if (rig.bodies[b].is_plane) DrawPlane(s.bodies[b].pose, cam);
 
+  // shadows on the planes: every surface (every kShadowStride-th point, larger
+  // splats) and the finger links flattened along a light from above (tilted
+  // like the key light), drawn once per pixel (stencil) as a translucent dark
+  // layer over the plane, under everything drawn after: it shows how high a
+  // lifted object is above the table
+  glDisable(GL_LIGHTING);
+  for (size_t pb = 0; pb < rig.bodies.size() && pb < s.bodies.size(); ++pb) {
+    if (!rig.bodies[pb].is_plane) continue;
+    const Pose& pp = s.bodies[pb].pose;
+    const Vec3 n = pp.Rotate(Vec3::UnitZ()), o = pp.t;
+    const Eigen::Matrix3d eye_to_world = V.block<3, 3>(0, 0).transpose();
+    Vec3 tilt = eye_to_world * Vec3(key[0], key[1], key[2]);
+    tilt -= tilt.dot(n) * n;
+    const Vec3 l = tilt.norm() > 1e-9 ? Vec3((n + 0.35 * tilt.normalized()).normalized()) : n;
+    const Mat4 VS = V * ShadowMatrix(o, n, l);
+    glLoadMatrixd(VS.data());
+    glDisable(GL_DEPTH_TEST);
+    glEnable(GL_STENCIL_TEST);
+    glStencilFunc(GL_EQUAL, 0, 0xFF);
+    glStencilOp(GL_KEEP, GL_KEEP, GL_INCR);
+    glEnable(GL_BLEND);
+    glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
+    glColor4f(0.05f, 0.06f, 0.10f, 0.5f);
+    glEnableClientState(GL_VERTEX_ARRAY);
+    for (size_t b = 0; b < rig.bodies.size() && b < s.bodies.size(); ++b) {
+      const SurfaceRig& r = rig.bodies[b];
+      const SurfaceFrame& f = surfaces_[b];
+      if (r.is_plane || f.positions.size() < kShadowStride) continue;
+      const double depth = std::max(1e-4, (s.bodies[b].pose.t - cam.position).dot(view_dir));
+      const double px = 2.0 * r.spacing * std::sqrt(double(kShadowStride)) * cam.PixelsPerMetre(depth, H);
+      glPointSize(static_cast<float>(std::clamp(px, 1.0, 24.0)));
+      glVertexPointer(3, GL_DOUBLE, kShadowStride * sizeof(Vec3), f.positions.data());
+      glDrawArrays(GL_POINTS, 0, static_cast<GLsizei>(f.positions.size() / kShadowStride));
+    }
+    glDisableClientState(GL_VERTEX_ARRAY);
+    for (const FingerState& f : s.fingers) DrawLinks(f, false);
+    glDisable(GL_BLEND);
+    glDisable(GL_STENCIL_TEST);
+    glEnable(GL_DEPTH_TEST);
+    glLoadMatrixd(V.data());
+    glClear(GL_STENCIL_BUFFER_BIT);
+  }
+  glEnable(GL_LIGHTING);
+
   // surfaces as splats: point size from the spacing seen at the body's depth
   glEnableClientState(GL_VERTEX_ARRAY);
   glEnableClientState(GL_NORMAL_ARRAY);
-  const Vec3 view_dir = (cam.target - cam.position).normalized();
   for (size_t b = 0; b < rig.bodies.size() && b < s.bodies.size(); ++b) {
     const SurfaceRig& r = rig.bodies[b];
     const SurfaceFrame& f = surfaces_[b];
     if (r.is_plane || f.positions.empty()) continue;
     const double depth = std::max(1e-4, (s.bodies[b].pose.t - cam.position).dot(view_dir));
-    const double px = 2.0 * r.spacing * cam.PixelsPerMetre(depth, H);
-    glPointSize(static_cast<float>(std::clamp(px, 1.0, 16.0)));
+    const double px = 2.3 * r.spacing * cam.PixelsPerMetre(depth, H);
+    // whole pixels, rounded up: llvmpipe rounds aliased point sizes to the nearest
+    // integer, and a 1.4 px splat drawn as 1 px leaves holes
+    glPointSize(static_cast<float>(std::clamp(std::ceil(px), 1.0, 16.0)));
     float col[4];
     BodyColour(r, r.finger >= 0, col);
     glMaterialfv(GL_FRONT_AND_BACK, GL_AMBIENT_AND_DIFFUSE, col);
@@ -246,31 +318,19 @@ const Image& Renderer::Draw(const SnapshotRig& rig, const WorldSnapshot& s, cons
   glDisableClientState(GL_VERTEX_ARRAY);
 
   // finger links: lit cylinders and joint balls, sized from the link lengths
-  for (const FingerState& f : s.fingers) {
-    const double reach = (f.points[1] - f.points[0]).norm() + (f.points[2] - f.points[1]).norm() +
-                         (f.points[3] - f.points[2]).norm();
-    const double radius = std::clamp(0.07 * reach, 1e-4, 0.05);
-    const float link[4] = {0.55f, 0.58f, 0.64f, 1.0f}, joint[4] = {0.35f, 0.37f, 0.42f, 1.0f};
-    glMaterialfv(GL_FRONT_AND_BACK, GL_AMBIENT_AND_DIFFUSE, link);
-    for (int i = 0; i < 3; ++i) DrawCylinder(f.points[i], f.points[i + 1], radius);
-    glMaterialfv(GL_FRONT_AND_BACK, GL_AMBIENT_AND_DIFFUSE, joint);
-    for (int i = 0; i < 3; ++i) DrawBall(f.points[i], 1.3 * radius);
-  }
+  for (const FingerState& f : s.fingers) DrawLinks(f, true);
   glDisable(GL_LIGHTING);
 
   // force arrows over everything: the force on the grasped object, pushing
-  // (the head at the contact point)
+  // (the head at the contact point); each drawn over a dark outline so that it
+  // reads on the orange object and the pink fingertips alike
   if (style.arrows && !s.contacts.empty()) {
-    glDisable(GL_DEPTH_TEST);
-    glLineWidth(style.per_pair ? 3.0f : 2.0f);
-    glBegin(GL_LINES);
+    arrows_.clear();
     if (!style.per_pair) {
       for (const ContactState& c : s.contacts) {
         const Vec3 d = ForceSign(rig, c.body[0], c.body[1]) * style.force_scale * c.force;
         if (!(d.norm() > 1e-7) || !d.allFinite()) continue;
-        const uint8_t* rgb = c.slip ? kSlipRgb : kStickRgb;
-        glColor3ub(rgb[0], rgb[1], rgb[2]);
-        Arrow(c.point - d, d, cam);
+        arrows_.push_back(ArrowItem{c.point - d, d, c.slip});
       }
     } else {
       // contacts come grouped by body pair from collision detection, but do not rely on it
@@ -293,12 +353,26 @@ const Image& Renderer::Draw(const SnapshotRig& rig, const WorldSnapshot& s, cons
       for (const PairSum& p : pairs_) {
         const Vec3 d = ForceSign(rig, p.a, p.b) * style.force_scale * p.force;
         if (!(p.weight > 0) || !(d.norm() > 1e-7) || !d.allFinite()) continue;
-        const uint8_t* rgb = p.slip_weight > 0.5 * p.weight ? kSlipRgb : kStickRgb;
-        glColor3ub(rgb[0], rgb[1], rgb[2]);
-        Arrow(p.centroid / p.weight - d, d, cam);
+        arrows_.push_back(ArrowItem{p.centroid / p.weight - d, d, p.slip_weight > 0.5 * p.weight});
       }
     }
-    glEnd();
+    // line width grows with the image: 4 px (pairs) or 2 px (contacts) at 480 rows
+    const float width = style.per_pair ? std::max(3.0f, std::round(float(H) / 120.0f))
+                                       : std::max(2.0f, std::round(float(H) / 240.0f));
+    glDisable(GL_DEPTH_TEST);
+    for (int pass = 0; pass < 2; ++pass) {
+      glLineWidth(pass == 0 ? width + 2.0f : width);
+      glBegin(GL_LINES);
+      for (const ArrowItem& a : arrows_) {
+        const uint8_t* rgb = a.slip ? kSlipRgb : kStickRgb;
+        if (pass == 0)
+          glColor3ub(25, 25, 30);
+        else
+          glColor3ub(rgb[0], rgb[1], rgb[2]);
+        Arrow(a.from, a.d, cam);
+      }
+      glEnd();
+    }
     glEnable(GL_DEPTH_TEST);
   }
   glFinish();

@@ -10,7 +10,9 @@
 //   a fingertip; else on body[0]), its head at the contact point, or per
 //   touching body pair (their resultant), length force * force_scale, green
 //   while sticking, red on the friction cone's boundary (slipping; for a pair:
-//   when most of its force slips), drawn over the surfaces; a legend gives the scale;
+//   when most of its force slips), drawn over the surfaces with a dark outline;
+//   a legend gives the scale;
+// - shadows of the surfaces and finger links on the planes (light from above);
 // - a HUD: simulated time, step, step time (unless negative), contacts,
 //   iterations, residual, tracker state (unless 'none').
 #pragma once
@@ -74,6 +76,11 @@ class Renderer {
     double weight = 0, slip_weight = 0;
   };
   std::vector<PairSum> pairs_;
+  struct ArrowItem {
+    Vec3 from, d;
+    bool slip = false;
+  };
+  std::vector<ArrowItem> arrows_;
   double expand_ms_ = 0, draw_ms_ = 0, overlay_ms_ = 0;
   std::string gl_version_;
 };

@@ -4,6 +4,7 @@
 // GRASPSIM_UPDATE_GOLDEN=1 rewrites the goldens (look at them before committing).
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -393,6 +394,42 @@ TEST(Render, HudTextIsDrawnAndFollowsTheNumbers) {
   ASSERT_EQ(lines.size(), 4u);
   for (const std::string& l : lines) EXPECT_EQ(l.find("step time"), std::string::npos) << l;
   EXPECT_EQ(lines.back(), "tracker 3/3 tracking");
+}
+
+// a ball lifted 3 cm casts a shadow on the table: table pixels darker than
+// without the ball, outside the ball's own silhouette, and below it in the picture
+TEST(Render, LiftedBallCastsAShadowOnTheTableBelowIt) {
+  const PressedBall& p = Pressed();
+  WorldSnapshot lifted = p.snap, gone = p.snap;
+  lifted.contacts.clear();
+  gone.contacts.clear();
+  lifted.bodies[p.ball].pose.t.z() += 0.03;
+  gone.bodies[p.ball].pose.t.x() += 10.0;  // out of the picture, with its shadow
+  Camera cam;
+  const Vec3 c = lifted.bodies[p.ball].pose.t;
+  cam.target = Vec3(c.x(), c.y(), 0.015);
+  cam.position = cam.target + Vec3(0.01, -0.09, 0.06);
+  cam.fov_deg = 35;
+  Renderer& r = SharedRenderer();
+  const Image with = r.Draw(*p.rig, lifted, cam, Plain());
+  const Image table = r.Draw(*p.rig, gone, cam, Plain());
+  const Image ball = r.Draw(*p.no_table, lifted, cam, Plain());
+  const Mask ball_mask = ObjectMask(ball);
+  ASSERT_GT(ball_mask.count, 200);
+  int n = 0;
+  double cy = 0;
+  for (int y = 0; y < kH; ++y)
+    for (int x = 0; x < kW; ++x) {
+      if (IsObject(ball.At(x, y))) continue;
+      const uint8_t *a = with.At(x, y), *b = table.At(x, y);
+      if (a[0] + a[1] + a[2] + 60 < b[0] + b[1] + b[2]) {
+        ++n;
+        cy += y + 0.5;
+      }
+    }
+  ASSERT_GT(n, ball_mask.count / 4) << "no shadow under the lifted ball";
+  EXPECT_GT(cy / n, ball_mask.cy + 5) << "the shadow is not below the ball";
+  std::printf("shadow: %d pixels (ball %d), centre row %.1f (ball %.1f)\n", n, ball_mask.count, cy / n, ball_mask.cy);
 }
 
 TEST(Text, GlyphsCoverTheHudCharacters) {
