@@ -150,11 +150,11 @@ int RunBenchCollision(const BenchOptions& opt) {
       std::printf(
           "{\"bench\":\"collision\",\"step\":%d,\"depth_mm\":%.4f,\"contacts\":%d,\"traverse_ms_median\":%.4f,"
           "\"interpenetration_ms_median\":%.4f,\"refit_ms_median\":%.4f,\"total_ms_median\":%.4f,"
-          "\"node_pairs\":%d,\"leaf_pairs\":%d,\"projections\":%d,\"culled\":%d,\"rejected\":%d,"
+          "\"node_pairs\":%d,\"leaf_pairs\":%d,\"projections\":%d,\"fits\":%d,\"culled\":%d,\"rejected\":%d,"
           "\"paper_contacts\":%d,\"paper_total_ms\":%.3f,\"repetitions\":%d}\n",
           k + 1, 1e3 * col[k].depth, col[k].contacts, col[k].traverse, col[k].interp, col[k].refit, col[k].total,
-          col[k].stats.node_pairs, col[k].stats.leaf_pairs, col[k].stats.projections, col[k].stats.culled,
-          col[k].stats.rejected, paper_contacts[k], paper_total[k], reps);
+          col[k].stats.node_pairs, col[k].stats.leaf_pairs, col[k].stats.projections, col[k].stats.fits,
+          col[k].stats.culled, col[k].stats.rejected, paper_contacts[k], paper_total[k], reps);
     return 0;
   }
   std::printf("Collision detection, the paper's scene (Figure 6): box 36,000 points / 4,800 control points,\n");
@@ -183,10 +183,11 @@ int RunBenchCollision(const BenchOptions& opt) {
   row("Interpenetration (ms)", ip, paper_interp);
   row("Hierarchy update (ms)", rf, paper_update);
   row("Total time (ms)", tt, paper_total);
-  std::printf("\nOne pass (ours): sphere tests / leaf pairs / projections / culled / rejected:\n");
+  std::printf("\nOne pass (ours): sphere tests / leaf pairs / projections / MLS fits / culled /\n"
+              "rejected:\n");
   for (int k = 0; k < 3; ++k)
-    std::printf("  step%d: %d / %d / %d / %d / %d\n", k + 1, col[k].stats.node_pairs, col[k].stats.leaf_pairs,
-                col[k].stats.projections, col[k].stats.culled, col[k].stats.rejected);
+    std::printf("  step%d: %d / %d / %d / %d / %d / %d\n", k + 1, col[k].stats.node_pairs, col[k].stats.leaf_pairs,
+                col[k].stats.projections, col[k].stats.fits, col[k].stats.culled, col[k].stats.rejected);
   std::printf("Grasp depths: %.3f, %.3f, %.3f mm. Paper: 2 GHz Pentium 4.\n", 1e3 * col[0].depth,
               1e3 * col[1].depth, 1e3 * col[2].depth);
   return 0;
