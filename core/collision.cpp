@@ -12,35 +12,51 @@ using Clock = std::chrono::steady_clock;
 
 double Seconds(Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double>(b - a).count(); }
 
-// collects the overlapping leaf pairs of two trees; b_in_a maps b's frame to a's
-void TraverseTrees(const SphereTree& ta, const SphereTree& tb, const Pose& b_in_a, double threshold,
+// moves the nodes of a tree into another frame, for traversal
+void MoveNodes(const SphereTree& t, const Pose& to, std::vector<TraversalNode>* out) {
+  const TraversalNode* n = t.traversal();
+  const size_t count = t.nodes().size();
+  out->resize(count);  // capacity reserved: no allocation
+  TraversalNode* o = out->data();
+  for (size_t i = 0; i < count; ++i) {
+    o[i] = n[i];
+    o[i].center = to.R * n[i].center + to.t;
+  }
+}
+
+// collects the overlapping leaf pairs of two trees whose nodes are in one frame;
+// a pair is tested when it is pushed, so only overlapping pairs go on the stack
+void TraverseTrees(const TraversalNode* na, int root_a, const TraversalNode* nb, int root_b, double threshold,
                    CollisionScratch* s, CollisionStats* stats) {
-  const TraversalNode* na_ = ta.traversal();
-  const TraversalNode* nb_ = tb.traversal();
   s->stack.clear();
   s->pairs.clear();
-  s->stack.emplace_back(ta.root(), tb.root());
   int tests = 0;
+  // tests (ia, ib): overlapping leaf pairs are collected, other overlapping pairs stacked
+  auto visit = [&](int ia, int ib) {
+    const TraversalNode& a = na[ia];
+    const TraversalNode& b = nb[ib];
+    const double reach = a.radius + b.radius + threshold;
+    const double d2 = (a.center - b.center).squaredNorm();
+    ++tests;
+    if (d2 > reach * reach) return;
+    if (a.IsLeaf() && b.IsLeaf())
+      s->pairs.push_back({a.leaf(), b.leaf(), d2});
+    else
+      s->stack.emplace_back(ia, ib);
+  };
+  visit(root_a, root_b);
   while (!s->stack.empty()) {
     const auto [ia, ib] = s->stack.back();
     s->stack.pop_back();
-    const TraversalNode& a = na_[ia];
-    const TraversalNode& b = nb_[ib];
-    const Vec3 cb = b_in_a.R * b.center + b_in_a.t;
-    const double reach = a.radius + b.radius + threshold;
-    const double d2 = (cb - a.center).squaredNorm();
-    ++tests;
-    if (d2 > reach * reach) continue;
-    const bool a_leaf = a.IsLeaf(), b_leaf = b.IsLeaf();
-    if (a_leaf && b_leaf) {
-      s->pairs.push_back({a.leaf(), b.leaf(), d2});
-    } else if (b_leaf || (!a_leaf && a.radius >= b.radius)) {
-      // descend the larger node
-      s->stack.emplace_back(a.child[1], ib);
-      s->stack.emplace_back(a.child[0], ib);
+    const TraversalNode& a = na[ia];
+    const TraversalNode& b = nb[ib];
+    // descend the larger node
+    if (b.IsLeaf() || (!a.IsLeaf() && a.radius >= b.radius)) {
+      visit(a.child[1], ib);
+      visit(a.child[0], ib);
     } else {
-      s->stack.emplace_back(ia, b.child[1]);
-      s->stack.emplace_back(ia, b.child[0]);
+      visit(ia, b.child[1]);
+      visit(ia, b.child[0]);
     }
   }
   stats->node_pairs += tests;
@@ -316,6 +332,7 @@ void CollisionScratch::Reserve(int max_leaves, int max_pairs) {
   touched_a.reserve(max_leaves);
   touched_b.reserve(max_leaves);
   node_stack.reserve(256);
+  if (static_cast<int>(moved.capacity()) < 2 * max_leaves) moved.reserve(2 * max_leaves);
   ball.reserve(4096);
 }
 
@@ -356,7 +373,16 @@ void CollidePair(int id_a, const CollisionShape& a, const Pose& pose_a, int id_b
   const auto t0 = Clock::now();
   const Pose b_in_a = pose_a.Inverse() * pose_b;
   const Pose a_in_b = b_in_a.Inverse();
-  TraverseTrees(*a.tree, *b.tree, b_in_a, params.contact_threshold, s, &local);
+  // the smaller tree is moved into the larger one's frame, once
+  if (a.tree->nodes().size() <= b.tree->nodes().size()) {
+    MoveNodes(*a.tree, a_in_b, &s->moved);
+    TraverseTrees(s->moved.data(), a.tree->root(), b.tree->traversal(), b.tree->root(), params.contact_threshold, s,
+                  &local);
+  } else {
+    MoveNodes(*b.tree, b_in_a, &s->moved);
+    TraverseTrees(a.tree->traversal(), a.tree->root(), s->moved.data(), b.tree->root(), params.contact_threshold, s,
+                  &local);
+  }
 
   // closest overlapping leaf on the other body, for every leaf of each body, and
   // how high each leaf centre stands above the other body's overlapping leaf slabs

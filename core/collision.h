@@ -81,6 +81,7 @@ struct CollisionScratch {
   std::vector<double> best_a_d2, best_b_d2;
   std::vector<double> lift_a, lift_b;    // per leaf: lowest height above the other body's overlapping leaf slabs
   std::vector<int> touched_a, touched_b;
+  std::vector<TraversalNode> moved;      // the smaller tree's nodes in the other body's frame
   std::vector<int> node_stack, ball;     // gathering the points around a query off the surface
   void Reserve(int max_leaves, int max_pairs);
 };
