@@ -111,13 +111,13 @@ const int* SupportOf(const SphereTree& ts, const Vec3& q, double support, int* l
 // ProjectOntoSurface does over all the body's points: every fit sees every point
 // within the kernel's support (the leaf follows the iterate). Where the leaf's
 // cached patch is trusted (a smooth surface there, on which the foot of x is the
-// same from any start near it) the fits start on the patch below x, usually one
+// same from any start near it) the fits start on the patch's point closest to x, usually one
 // fit from converged; elsewhere (sharp edges) they start at x, like the reference.
 bool ProjectNear(const SphereTree& ts, const Vec3* pos, const Vec3* nrm, const Vec3& x, const MlsParams& mls,
                  int* leaf, CollisionScratch* s, MlsProjection* out) {
   const double support = mls.support * mls.bandwidth;
   const MlsPatch* patch = ts.leaf_patch(*leaf);
-  Vec3 q = patch ? patch->Below(x) : x;
+  Vec3 q = patch ? patch->Closest(x) : x;
   Vec3 normal = Vec3::UnitZ();
   out->iterations = 0;
   out->converged = false;

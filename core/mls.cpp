@@ -175,6 +175,19 @@ double MlsImplicit(const Vec3* positions, const Vec3* normals, const int* idx, i
   return f.normal.dot(f.mean - p);
 }
 
+Vec3 MlsPatch::Closest(const Vec3& x) const {
+  const Vec3 d = (x - origin) / h;
+  const double U = d.dot(t1), V = d.dot(t2), Z = d.dot(normal);
+  double u = U, v = V;
+  const Eigen::Matrix<double, 6, 1> cc = Eigen::Map<const Eigen::Matrix<double, 6, 1>>(c);
+  if (!ClosestOnQuadric(cc, U, V, Z, &u, &v)) {
+    u = U;
+    v = V;
+  }
+  const double g = c[0] + c[1] * u + c[2] * v + c[3] * u * u + c[4] * u * v + c[5] * v * v;
+  return origin + (u * t1 + v * t2 + g * normal) * h;
+}
+
 bool MlsFitPatch(const Vec3* positions, const Vec3* normals, const int* idx, int count, const Vec3& p,
                  const MlsParams& params, MlsPatch* out) {
   Weighted kept[kMaxWeighted];

@@ -71,6 +71,9 @@ struct MlsPatch {
     const double g = c[0] + c[1] * u + c[2] * v + c[3] * u * u + c[4] * u * v + c[5] * v * v;
     return origin + (u * t1 + v * t2 + g * normal) * h;
   }
+  /// The point of the patch closest to x (the point below x where x lies past
+  /// the patch's centre of curvature).
+  Vec3 Closest(const Vec3& x) const;
   /// The patch's unit normal at the point below x.
   Vec3 NormalBelow(const Vec3& x) const {
     const Vec3 d = x - origin;
