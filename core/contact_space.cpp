@@ -113,6 +113,7 @@ void BuildContactSpace(World& w) {
     row.held_back = 0.0;
     row.mu = w.Friction(c.body[0], c.body[1]);
     w.rows.push_back(row);
+    ++w.profile.work.w_blocks_built;
   }
   const auto t1 = Clock::now();
 
@@ -127,6 +128,7 @@ void BuildContactSpace(World& w) {
       Body& b = w.bodies[c.body[s]];
       ContactSide& side = row.side[s];
       if (!b.deform.enabled() || side.count == 0) continue;  // weights set with the rigid part
+      ++w.profile.work.w_deform_sides;
       const int begin = static_cast<int>(w.side_inf_idx.size());
       for (int k = 0; k < side.count; ++k) {
         const int* idx;

@@ -145,6 +145,23 @@ struct WorldParams {
   double max_push_out_speed = 0.1;
 };
 
+/// Work done by the last step, counted where it is done: what a scene does not
+/// need reads zero here (docs/skip.md).
+struct StepWork {
+  int refit_trees = 0;        ///< trees refit (a deformed body whose control points moved)
+  int refit_nodes = 0;        ///< tree nodes recomputed or inflated by refit
+  int body_pairs = 0;         ///< body pairs that both can move or deform (candidates of the broad phase)
+  int pair_tests = 0;         ///< bounding-sphere tests of the broad phase (one per candidate pair)
+  int pairs_traversed = 0;    ///< body pairs whose trees were traversed (bounding spheres overlap)
+  int w_blocks_built = 0;     ///< diagonal Delassus blocks W_cc computed
+  int w_deform_sides = 0;     ///< contact sides whose W_deform term and merged influence were built
+  int w_deform_reused = 0;    ///< of those, merged influences copied from the last step (same contact, same weights)
+  int local_solves_3d = 0;    ///< local Coulomb solves (normal and tangents)
+  int local_solves_normal = 0;///< normal-only local solves (every contact frictionless)
+  int propagations = 0;       ///< control-point updates u += phi F in the solver (displacement propagation)
+  int deformed_points = 0;    ///< control points integrated by constrained motion (eq. 7)
+};
+
 /// Per-stage times of the last step (s), in the layout of the paper's Figures 6 and 7.
 struct StepProfile {
   double free_motion = 0, traverse = 0, interpenetration = 0, refit = 0;
@@ -155,6 +172,7 @@ struct StepProfile {
   bool converged = true;
   bool rejected = false;  ///< the step produced a non-finite value and was undone
   CollisionStats collision;
+  StepWork work;
 };
 
 class World {
