@@ -158,6 +158,14 @@ std::vector<Case> Cases() {
                     {"propagations", &StepWork::propagations},
                     {"deformed_points", &StepWork::deformed_points},
                     {"refit_nodes", &StepWork::refit_nodes}}});
+  cases.push_back({"changed contacts", "recomputed", "reused",
+                   [](World& w) {
+                     Boxes(w, 0.8, true);
+                     w.params.reuse_contact_space = false;
+                   },
+                   [](World& w) { Boxes(w, 0.8, true); },
+                   200,
+                   {{"w_deform_sides", &StepWork::w_deform_sides}, {"w_deform_reused", &StepWork::w_deform_reused}}});
   cases.push_back({"proximity", "2.05 cm apart", "10 cm apart",
                    [](World& w) { FallingBalls(w, 0.0205); },
                    [](World& w) { FallingBalls(w, 0.10); },

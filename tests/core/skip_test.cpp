@@ -170,6 +170,31 @@ TEST(Skip, OnlyMovedSubtreesAreRefit) {
   EXPECT_GT(w.bodies[1].velocity.norm(), 0.1);
 }
 
+TEST(Skip, UnchangedContactSidesReuseTheirInfluenceExactly) {
+  World on, off;
+  BallOnPlane(on, true);
+  BallOnPlane(off, true);
+  off.params.reuse_contact_space = false;
+  for (int i = 0; i < 150; ++i) {
+    on.Step();
+    off.Step();
+  }
+  ASSERT_GT(on.rows.size(), 3u);
+  // every side of the resting ball persists from the last step: all reused
+  EXPECT_GT(on.profile.work.w_deform_sides, 0);
+  EXPECT_EQ(on.profile.work.w_deform_reused, on.profile.work.w_deform_sides);
+  EXPECT_EQ(off.profile.work.w_deform_reused, 0);
+  EXPECT_EQ(off.profile.work.w_deform_sides, on.profile.work.w_deform_sides);
+  // and what is reused is what would have been recomputed: bit for bit the same run
+  ASSERT_EQ(on.rows.size(), off.rows.size());
+  for (size_t i = 0; i < on.rows.size(); ++i) {
+    EXPECT_EQ(on.rows[i].w_diag, off.rows[i].w_diag);
+    EXPECT_EQ(on.rows[i].r, off.rows[i].r);
+  }
+  EXPECT_EQ(on.bodies[1].pose.t, off.bodies[1].pose.t);
+  for (size_t j = 0; j < on.bodies[1].u.size(); ++j) ASSERT_EQ(on.bodies[1].u[j], off.bodies[1].u[j]);
+}
+
 TEST(Skip, DistantPairsCostOneSphereTest) {
   World w;
   w.params.dt = 1e-3;
