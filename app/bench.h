@@ -25,6 +25,7 @@ int RunBenchSoak(const BenchOptions& opt);
 int RunBenchRender(const BenchOptions& opt);
 int RunBenchScaling(const BenchOptions& opt);
 int RunBenchTradeoff(const BenchOptions& opt);
+int RunBenchSkip(const BenchOptions& opt);
 
 /// Accuracy of MLS projections of points near a sampled shape (errors in spacings).
 struct MlsAccuracy {

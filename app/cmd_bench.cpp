@@ -30,6 +30,9 @@ void AddBenchCommand(CLI::App& app, int* exit_code) {
   add("render", "ms per frame for the paper grasp at 640x480 and 1280x720 (target 33 ms at 640x480)", RunBenchRender);
   add("scaling", "step time against contacts (50 to 2,000) and points per object (10,000 to 500,000), fitted slopes",
       RunBenchScaling);
+  add("skip", "per feature (friction, deformation, nearby pairs, ...), the step time with it against the same scene "
+      "without it, side by side",
+      RunBenchSkip);
   CLI::App* tradeoff = add("tradeoff",
                             "run time against error for every knob (points, control points, bandwidth, GS tolerance "
                             "and cap, dt), Pareto fronts",

@@ -17,7 +17,10 @@ void DetectCollisions(World& w) {
     bool any = false;
     for (uint8_t c : b.u_changed) any |= (c != 0);
     if (!any) continue;
-    b.geometry.tree.Refit(b.u.data(), b.u_spread.data(), b.u_changed.data(), w.params.refit_stop_level, nullptr);
+    RefitStats rs;
+    b.geometry.tree.Refit(b.u.data(), b.u_spread.data(), b.u_changed.data(), w.params.refit_stop_level, &rs);
+    ++w.profile.work.refit_trees;
+    w.profile.work.refit_nodes += rs.nodes_visited;
     std::fill(b.u_changed.begin(), b.u_changed.end(), 0);
   }
   const auto t1 = Clock::now();
@@ -35,7 +38,10 @@ void DetectCollisions(World& w) {
       // two fingertips of the same finger never touch
       if (a.finger >= 0 && a.finger == b.finger) continue;
       const CollisionShape sb = b.Shape();
+      ++w.profile.work.body_pairs;
+      ++w.profile.work.pair_tests;
       if (!RootsOverlap(sa, a.pose, sb, b.pose, w.params.collision.contact_threshold)) continue;
+      ++w.profile.work.pairs_traversed;
       CollidePair(i, sa, a.pose, j, sb, b.pose, w.params.collision, &w.collision_scratch, &w.contacts,
                   &w.profile.collision);
     }

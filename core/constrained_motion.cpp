@@ -59,6 +59,7 @@ void ConstrainedMotion(World& w) {
     // control points: eq. 7, and what refit needs to know
     for (Body& b : w.bodies) {
       if (!b.deform.enabled()) continue;
+      w.profile.work.deformed_points += b.deform.size();
       for (int j = 0; j < b.deform.size(); ++j) {
         const Vec3 u_new = b.u_free[j] + b.u_acc[j];
         if ((u_new - b.u[j]).squaredNorm() > 1e-24) b.u_changed[j] = 1;

@@ -28,11 +28,73 @@ Vec3 SideDisplacement(const ContactSide& s, const std::vector<Vec3>& u) {
   return d;
 }
 
+// same eq. 8 interpolation (control points and weights, bitwise)
+bool SameWeights(const ContactSide& a, const ContactSide& b) {
+  if (a.count != b.count) return false;
+  for (int k = 0; k < a.count; ++k)
+    if (a.idx[k] != b.idx[k] || a.w[k] != b.w[k]) return false;
+  return true;
+}
+
+// the side's merged influence sum_k w_k phi(k, m) appended to the world's
+// buffers, and its diagonal term sum_i w_i (sum_k w_k phi_ki)
+void BuildSideInfluence(World& w, Body& b, ContactSide* side) {
+  const int begin = static_cast<int>(w.side_inf_idx.size());
+  for (int k = 0; k < side->count; ++k) {
+    const int* idx;
+    const double* phi;
+    const int m = b.deform.Influence(side->idx[k], &idx, &phi);
+    for (int j = 0; j < m; ++j) {
+      int& slot = b.inf_slot[idx[j]];
+      if (slot < 0) {
+        slot = static_cast<int>(w.side_inf_idx.size());
+        w.side_inf_idx.push_back(idx[j]);
+        w.side_inf_phi.push_back(0.0);
+      }
+      w.side_inf_phi[slot] += side->w[k] * phi[j];
+    }
+  }
+  double k = 0.0;
+  for (int i = 0; i < side->count; ++i) k += side->w[i] * w.side_inf_phi[b.inf_slot[side->idx[i]]];
+  const int end = static_cast<int>(w.side_inf_idx.size());
+  for (int j = begin; j < end; ++j) b.inf_slot[w.side_inf_idx[j]] = -1;
+  side->inf_begin = begin;
+  side->inf_count = end - begin;
+  side->w_deform = k;
+}
+
+// the free displacement's share of the gap and slip, the held-back overlap, the warm start
+void FinishRow(World& w, ContactRow* row, double gap_def, const Vec3& slip_def) {
+  const Contact& c = row->contact;
+  // normal: position-level gap after free motion (eq. 6); tangents: free slip over the step
+  row->q += Vec3(gap_def, row->frame.row(1).dot(slip_def), row->frame.row(2).dot(slip_def));
+  // an overlap present at the start of the step is removed at a bounded speed:
+  // the solver sees the rest of it as allowed for this step
+  if (w.params.max_push_out_speed > 0.0) {
+    row->held_back = std::max(0.0, -row->gap_start - w.params.max_push_out_speed * w.params.dt);
+    row->q[0] += row->held_back;
+  }
+  row->r.setZero();
+  // warm start: the previous world force of the same key, in the new frame
+  const auto it = std::lower_bound(w.warm_prev.begin(), w.warm_prev.end(), c.key,
+                                   [](const std::pair<uint64_t, Vec3>& e, uint64_t k) { return e.first < k; });
+  if (it != w.warm_prev.end() && it->first == c.key) row->r = row->frame * it->second;
+}
+
 }  // namespace
 
 void BuildContactSpace(World& w) {
   using Clock = std::chrono::steady_clock;
   const auto t0 = Clock::now();
+  // the last step's rows and influences become the reuse cache
+  std::swap(w.rows, w.rows_prev);
+  std::swap(w.side_inf_idx, w.side_inf_idx_prev);
+  std::swap(w.side_inf_phi, w.side_inf_phi_prev);
+  w.rows_prev_by_key.clear();
+  if (w.params.reuse_contact_space) {
+    for (size_t i = 0; i < w.rows_prev.size(); ++i) w.rows_prev_by_key.emplace_back(w.rows_prev[i].contact.key, static_cast<int>(i));
+    std::sort(w.rows_prev_by_key.begin(), w.rows_prev_by_key.end());
+  }
   w.rows.clear();
   w.side_inf_idx.clear();
   w.side_inf_phi.clear();
@@ -58,6 +120,7 @@ void BuildContactSpace(World& w) {
       side.articulation = b.articulation;
       side.count = 0;
       side.inf_begin = side.inf_count = 0;
+      side.w_deform = 0.0;
       // eq. 8 weights of the contact point over the control points (deformable bodies):
       // the query side's contact point is the control point itself
       if (b.deform.enabled()) {
@@ -113,6 +176,7 @@ void BuildContactSpace(World& w) {
     row.held_back = 0.0;
     row.mu = w.Friction(c.body[0], c.body[1]);
     w.rows.push_back(row);
+    ++w.profile.work.w_blocks_built;
   }
   const auto t1 = Clock::now();
 
@@ -123,32 +187,35 @@ void BuildContactSpace(World& w) {
     const Contact& c = row.contact;
     double gap_def = 0.0;
     Vec3 slip_def = Vec3::Zero();
+    // the same contact in the last step, if any
+    const ContactRow* prev = nullptr;
+    if (!w.rows_prev_by_key.empty() && (row.side[0].count > 0 || row.side[1].count > 0)) {
+      const auto it = std::lower_bound(w.rows_prev_by_key.begin(), w.rows_prev_by_key.end(),
+                                       std::pair<uint64_t, int>(c.key, -1));
+      if (it != w.rows_prev_by_key.end() && it->first == c.key) prev = &w.rows_prev[it->second];
+    }
     for (int s = 0; s < 2; ++s) {
       Body& b = w.bodies[c.body[s]];
       ContactSide& side = row.side[s];
       if (!b.deform.enabled() || side.count == 0) continue;  // weights set with the rigid part
+      ++w.profile.work.w_deform_sides;
       const int begin = static_cast<int>(w.side_inf_idx.size());
-      for (int k = 0; k < side.count; ++k) {
-        const int* idx;
-        const double* phi;
-        const int m = b.deform.Influence(side.idx[k], &idx, &phi);
-        for (int j = 0; j < m; ++j) {
-          int& slot = b.inf_slot[idx[j]];
-          if (slot < 0) {
-            slot = static_cast<int>(w.side_inf_idx.size());
-            w.side_inf_idx.push_back(idx[j]);
-            w.side_inf_phi.push_back(0.0);
-          }
-          w.side_inf_phi[slot] += side.w[k] * phi[j];
-        }
+      const ContactSide* ps = prev ? &prev->side[s] : nullptr;
+      if (ps && ps->body == side.body && SameWeights(*ps, side)) {
+        // unchanged since the last step: copy its merged influence and W_deform term
+        ++w.profile.work.w_deform_reused;
+        const int from = ps->inf_begin;
+        w.side_inf_idx.insert(w.side_inf_idx.end(), w.side_inf_idx_prev.begin() + from,
+                              w.side_inf_idx_prev.begin() + from + ps->inf_count);
+        w.side_inf_phi.insert(w.side_inf_phi.end(), w.side_inf_phi_prev.begin() + from,
+                              w.side_inf_phi_prev.begin() + from + ps->inf_count);
+        side.inf_begin = begin;
+        side.inf_count = ps->inf_count;
+        side.w_deform = ps->w_deform;
+      } else {
+        BuildSideInfluence(w, b, &side);
       }
-      double k = 0.0;
-      for (int i = 0; i < side.count; ++i) k += side.w[i] * w.side_inf_phi[b.inf_slot[side.idx[i]]];
-      const int end = static_cast<int>(w.side_inf_idx.size());
-      for (int j = begin; j < end; ++j) b.inf_slot[w.side_inf_idx[j]] = -1;
-      side.inf_begin = begin;
-      side.inf_count = end - begin;
-      row.w_diag += k * Mat3::Identity();  // isotropic kernel: frame R R^T frame^T = I
+      row.w_diag += side.w_deform * Mat3::Identity();  // isotropic kernel: frame R R^T frame^T = I
       const Vec3 uf = b.pose.Rotate(SideDisplacement(side, b.u_free));
       const Vec3 up = b.pose.Rotate(SideDisplacement(side, b.u));
       gap_def += side.sign * c.normal.dot(uf);
@@ -156,19 +223,7 @@ void BuildContactSpace(World& w) {
       slip_def += side.sign * (uf - up);
       row.gap_start += side.sign * c.normal.dot(up);
     }
-    // normal: position-level gap after free motion (eq. 6); tangents: free slip over the step
-    row.q += Vec3(gap_def, row.frame.row(1).dot(slip_def), row.frame.row(2).dot(slip_def));
-    // an overlap present at the start of the step is removed at a bounded speed:
-    // the solver sees the rest of it as allowed for this step
-    if (w.params.max_push_out_speed > 0.0) {
-      row.held_back = std::max(0.0, -row.gap_start - w.params.max_push_out_speed * w.params.dt);
-      row.q[0] += row.held_back;
-    }
-    row.r.setZero();
-    // warm start: the previous world force of the same key, in the new frame
-    const auto it = std::lower_bound(w.warm_prev.begin(), w.warm_prev.end(), c.key,
-                                     [](const std::pair<uint64_t, Vec3>& e, uint64_t k) { return e.first < k; });
-    if (it != w.warm_prev.end() && it->first == c.key) row.r = row.frame * it->second;
+    FinishRow(w, &row, gap_def, slip_def);
   }
   const auto t2 = Clock::now();
   w.profile.fill_w_rigid = std::chrono::duration<double>(t1 - t0).count();

@@ -114,6 +114,7 @@ struct ContactSide {
   /// contact point moves control point m by phi_m F (eq. 8 weights folded into eq. 13),
   /// entries [inf_begin, inf_begin + inf_count) of World::side_inf_idx / side_inf_phi
   int inf_begin = 0, inf_count = 0;
+  double w_deform = 0.0;  ///< this side's share of W_deform,cc (m/N, isotropic)
 };
 
 /// One row block of the contact space (normal first, then the two tangents).
@@ -143,6 +144,28 @@ struct WorldParams {
   /// the body (a 4 mm overlap removed in one 1 ms step would leave at 4 m/s).
   /// Overlap made by the step's own free motion is always removed at once.
   double max_push_out_speed = 0.1;
+  /// Reuse the merged influence and W_deform term of a contact side that is the
+  /// same as in the last step (same contact key, same interpolation weights):
+  /// exact, the copied values are the ones that would be recomputed. Off only to
+  /// measure what it saves (bench skip).
+  bool reuse_contact_space = true;
+};
+
+/// Work done by the last step, counted where it is done: what a scene does not
+/// need reads zero here (docs/skip.md).
+struct StepWork {
+  int refit_trees = 0;        ///< trees refit (a deformed body whose control points moved)
+  int refit_nodes = 0;        ///< tree nodes recomputed or inflated by refit
+  int body_pairs = 0;         ///< body pairs that both can move or deform (candidates of the broad phase)
+  int pair_tests = 0;         ///< bounding-sphere tests of the broad phase (one per candidate pair)
+  int pairs_traversed = 0;    ///< body pairs whose trees were traversed (bounding spheres overlap)
+  int w_blocks_built = 0;     ///< diagonal Delassus blocks W_cc computed
+  int w_deform_sides = 0;     ///< contact sides whose W_deform term and merged influence were built
+  int w_deform_reused = 0;    ///< of those, merged influences copied from the last step (same contact, same weights)
+  int local_solves_3d = 0;    ///< local Coulomb solves (normal and tangents)
+  int local_solves_normal = 0;///< normal-only local solves (every contact frictionless)
+  int propagations = 0;       ///< control-point updates u += phi F in the solver (displacement propagation)
+  int deformed_points = 0;    ///< control points integrated by constrained motion (eq. 7)
 };
 
 /// Per-stage times of the last step (s), in the layout of the paper's Figures 6 and 7.
@@ -155,6 +178,7 @@ struct StepProfile {
   bool converged = true;
   bool rejected = false;  ///< the step produced a non-finite value and was undone
   CollisionStats collision;
+  StepWork work;
 };
 
 class World {
@@ -188,6 +212,11 @@ class World {
   std::vector<Vec3> solve_r;
   std::vector<int> side_inf_idx;      ///< merged influences of the contact sides (see ContactSide)
   std::vector<double> side_inf_phi;
+  // the last step's contact space, for reuse (params.reuse_contact_space)
+  std::vector<ContactRow> rows_prev;
+  std::vector<int> side_inf_idx_prev;
+  std::vector<double> side_inf_phi_prev;
+  std::vector<std::pair<uint64_t, int>> rows_prev_by_key;  ///< (key, index in rows_prev), sorted
 };
 
 /// Everything needed to add a body to a world.

@@ -1,0 +1,233 @@
+// A scene pays only for what it uses (docs/skip.md): each skip is checked by
+// the work the step reports in StepProfile::work, against the same scene with
+// the feature, so that removing the skip makes the test fail.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "core/world.h"
+
+namespace gs {
+namespace {
+
+int AddPlane(World& w) {
+  BodySpec plane;
+  plane.name = "plane";
+  plane.is_plane = true;
+  return AddBody(w, plane);
+}
+
+BodySpec Ball(const Vec3& at, bool deformable) {
+  BodySpec s;
+  s.name = "ball";
+  s.shape.type = EShape::Sphere;
+  s.shape.radius = 0.01;
+  s.geometry.points = 1500;
+  s.geometry.control_points = 200;
+  s.mass = 0.05;
+  s.pose = Pose::Translation(at);
+  if (deformable) {
+    s.deformation.model = EDeformation::Gaussian;
+    s.deformation.stiffness = 500;
+    s.deformation.damping = 1;
+    s.deformation.influence_radius = 0.003;
+  }
+  return s;
+}
+
+BodySpec Box(const Vec3& at, double half) {
+  BodySpec b;
+  b.name = "box";
+  b.shape.type = EShape::Box;
+  b.shape.half_extents = Vec3::Constant(half);
+  b.geometry.points = 1500;
+  b.geometry.control_points = 200;
+  b.mass = 0.05;
+  b.pose = Pose::Translation(at);
+  return b;
+}
+
+// a row of resting boxes on a plane, friction mu
+void RestingBoxes(World& w, double mu) {
+  w.params.dt = 1e-3;
+  w.params.default_friction = mu;
+  w.params.solver.tolerance = 1e-7;
+  w.params.solver.max_iterations = 200;
+  AddPlane(w);
+  for (int i = 0; i < 3; ++i) ASSERT_GE(AddBody(w, Box(Vec3(0.05 * i, 0, 0.0101), 0.01)), 0);
+  w.Finalize();
+}
+
+double NormalForceSum(const World& w) {
+  double s = 0.0;
+  for (const ContactRow& r : w.rows) s += r.r[0];
+  return s;
+}
+
+TEST(Skip, FrictionlessSceneSolvesNormalsOnly) {
+  World w;
+  RestingBoxes(w, 0.0);
+  for (int i = 0; i < 200; ++i) {
+    w.Step();
+    ASSERT_FALSE(w.profile.rejected);
+  }
+  ASSERT_GT(w.rows.size(), 10u);
+  EXPECT_EQ(w.profile.work.local_solves_3d, 0);
+  EXPECT_GE(w.profile.work.local_solves_normal, static_cast<int>(w.rows.size()));
+  EXPECT_TRUE(w.profile.converged);
+  EXPECT_LE(w.profile.residual, w.params.solver.tolerance);
+  for (const ContactRow& r : w.rows) {
+    EXPECT_EQ(r.r[1], 0.0);
+    EXPECT_EQ(r.r[2], 0.0);
+    EXPECT_GE(r.r[0], 0.0);
+  }
+  // the boxes' weight is carried (3 x 0.05 kg)
+  EXPECT_NEAR(NormalForceSum(w), 3 * 0.05 * 9.81, 0.02 * 3 * 0.05 * 9.81);
+}
+
+TEST(Skip, NormalsOnlyAgreesWithTheFullSolverAtVanishingFriction) {
+  World a, b;
+  RestingBoxes(a, 0.0);
+  RestingBoxes(b, 1e-12);  // the general 3D solver on (almost) the same problem
+  for (int i = 0; i < 150; ++i) {
+    a.Step();
+    b.Step();
+  }
+  EXPECT_EQ(b.profile.work.local_solves_normal, 0);
+  EXPECT_GT(b.profile.work.local_solves_3d, 0);
+  ASSERT_EQ(a.rows.size(), b.rows.size());
+  for (size_t i = 1; i < a.bodies.size(); ++i)
+    EXPECT_LT((a.bodies[i].pose.t - b.bodies[i].pose.t).norm(), 1e-7) << "body " << i;
+  EXPECT_NEAR(NormalForceSum(a), NormalForceSum(b), 1e-3 * NormalForceSum(b));
+}
+
+TEST(Skip, FrictionUsesTheFullSolver) {
+  World w;
+  RestingBoxes(w, 0.5);
+  for (int i = 0; i < 50; ++i) w.Step();
+  EXPECT_EQ(w.profile.work.local_solves_normal, 0);
+  EXPECT_GT(w.profile.work.local_solves_3d, 0);
+}
+
+// a ball resting on a plane, deformable or rigid
+void BallOnPlane(World& w, bool deformable) {
+  w.params.dt = 1e-3;
+  w.params.solver.tolerance = 1e-7;
+  w.params.solver.max_iterations = 200;
+  AddPlane(w);
+  ASSERT_GE(AddBody(w, Ball(Vec3(0, 0, 0.0101), deformable)), 0);
+  w.Finalize();
+}
+
+TEST(Skip, RigidBodiesHaveNoDeformationWork) {
+  World rigid, soft;
+  BallOnPlane(rigid, false);
+  BallOnPlane(soft, true);
+  for (int i = 0; i < 100; ++i) {
+    rigid.Step();
+    soft.Step();
+  }
+  ASSERT_GT(rigid.rows.size(), 0u);
+  ASSERT_GT(soft.rows.size(), 0u);
+  const StepWork& r = rigid.profile.work;
+  EXPECT_EQ(r.w_deform_sides, 0);
+  EXPECT_EQ(r.propagations, 0);
+  EXPECT_EQ(r.deformed_points, 0);
+  EXPECT_EQ(r.refit_trees, 0);
+  EXPECT_EQ(r.refit_nodes, 0);
+  EXPECT_GT(r.w_blocks_built, 0);
+  // the same scene with a deformable ball does all of it
+  const StepWork& s = soft.profile.work;
+  EXPECT_GT(s.w_deform_sides, 0);
+  EXPECT_GT(s.propagations, 0);
+  EXPECT_EQ(s.deformed_points, 200);
+  EXPECT_EQ(s.refit_trees, 1);
+  EXPECT_GT(s.refit_nodes, 0);
+}
+
+TEST(Skip, OnlyMovedSubtreesAreRefit) {
+  World w;
+  BallOnPlane(w, true);
+  for (int i = 0; i < 100; ++i) w.Step();
+  const SphereTree& tree = w.bodies[1].geometry.tree;
+  const int nodes = static_cast<int>(tree.nodes().size());
+  // pressed at its bottom only: the leaves there and their ancestors, not the tree
+  EXPECT_GT(w.profile.work.refit_nodes, 0);
+  EXPECT_LT(w.profile.work.refit_nodes, nodes / 2) << "of " << nodes << " nodes";
+  // lifted away, the deformation relaxes; once it stops changing nothing is refit
+  w.bodies[1].pose = w.bodies[1].pose_prev = Pose::Translation(Vec3(0, 0, 0.5));
+  w.bodies[1].velocity.setZero();
+  int last_refit_step = -1;
+  for (int i = 0; i < 300; ++i) {
+    w.Step();
+    if (w.profile.work.refit_nodes > 0) last_refit_step = i;
+  }
+  EXPECT_GT(last_refit_step, 0);
+  EXPECT_LT(last_refit_step, 250);
+  EXPECT_EQ(w.profile.work.refit_trees, 0);
+  EXPECT_EQ(w.profile.work.refit_nodes, 0);
+  // a deformable body moving rigidly through free space is not refit either
+  EXPECT_GT(w.bodies[1].velocity.norm(), 0.1);
+}
+
+TEST(Skip, UnchangedContactSidesReuseTheirInfluenceExactly) {
+  World on, off;
+  BallOnPlane(on, true);
+  BallOnPlane(off, true);
+  off.params.reuse_contact_space = false;
+  for (int i = 0; i < 150; ++i) {
+    on.Step();
+    off.Step();
+  }
+  ASSERT_GT(on.rows.size(), 3u);
+  // every side of the resting ball persists from the last step: all reused
+  EXPECT_GT(on.profile.work.w_deform_sides, 0);
+  EXPECT_EQ(on.profile.work.w_deform_reused, on.profile.work.w_deform_sides);
+  EXPECT_EQ(off.profile.work.w_deform_reused, 0);
+  EXPECT_EQ(off.profile.work.w_deform_sides, on.profile.work.w_deform_sides);
+  // and what is reused is what would have been recomputed: bit for bit the same run
+  ASSERT_EQ(on.rows.size(), off.rows.size());
+  for (size_t i = 0; i < on.rows.size(); ++i) {
+    EXPECT_EQ(on.rows[i].w_diag, off.rows[i].w_diag);
+    EXPECT_EQ(on.rows[i].r, off.rows[i].r);
+  }
+  EXPECT_EQ(on.bodies[1].pose.t, off.bodies[1].pose.t);
+  for (size_t j = 0; j < on.bodies[1].u.size(); ++j) ASSERT_EQ(on.bodies[1].u[j], off.bodies[1].u[j]);
+}
+
+TEST(Skip, DistantPairsCostOneSphereTest) {
+  World w;
+  w.params.dt = 1e-3;
+  AddPlane(w);
+  // eight balls falling side by side, 5 cm apart, high above the plane
+  for (int i = 0; i < 8; ++i) ASSERT_GE(AddBody(w, Ball(Vec3(0.05 * i, 0, 0.3), true)), 0);
+  // and a fixed box and a kinematic one: a pair of them is never a candidate
+  BodySpec fixed = Box(Vec3(1, 1, 0.01), 0.01);
+  fixed.motion = EMotion::Fixed;
+  AddBody(w, fixed);
+  BodySpec kin = Box(Vec3(1, 1.015, 0.01), 0.01);
+  kin.motion = EMotion::Kinematic;
+  AddBody(w, kin);
+  w.Finalize();
+  for (int i = 0; i < 5; ++i) w.Step();
+  const StepWork& k = w.profile.work;
+  // 11 bodies: 55 pairs; plane-fixed, plane-kinematic and fixed-kinematic cannot move
+  EXPECT_EQ(k.body_pairs, 55 - 3);
+  EXPECT_EQ(k.pair_tests, k.body_pairs);
+  EXPECT_EQ(k.pairs_traversed, 0);
+  EXPECT_EQ(w.profile.collision.node_pairs, 0);
+  EXPECT_EQ(w.rows.size(), 0u);
+  // closer than their bounding spheres, two of them are traversed
+  World v;
+  v.params.dt = 1e-3;
+  AddPlane(v);
+  ASSERT_GE(AddBody(v, Ball(Vec3(0, 0, 0.3), true)), 0);
+  ASSERT_GE(AddBody(v, Ball(Vec3(0.0205, 0, 0.3), true)), 0);
+  v.Finalize();
+  v.Step();
+  EXPECT_EQ(v.profile.work.pairs_traversed, 1);
+  EXPECT_GT(v.profile.collision.node_pairs, 0);
+}
+
+}  // namespace
+}  // namespace gs
