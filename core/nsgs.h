@@ -89,6 +89,21 @@ inline double NsgsUpdate(Op& op, Vec3* r, int c, double omega, double* angle, do
   return e2;
 }
 
+/// One sweep over the contacts (forward, or backward when `backward`); returns
+/// the in-sweep estimate of the Siconos error (on the mixed iterate).
+template <class Op>
+double NsgsSweep(Op& op, Vec3* r, double omega, bool backward, double nq, double* angle) {
+  const int n = op.NumContacts();
+  double num = 0.0, nu = 0.0, nr = 0.0;
+  if (!backward) {
+    for (int c = 0; c < n; ++c) num += NsgsUpdate(op, r, c, omega, &angle[c], &nu, &nr);
+  } else {
+    for (int c = n - 1; c >= 0; --c) num += NsgsUpdate(op, r, c, omega, &angle[c], &nu, &nr);
+  }
+  const double den = std::sqrt(std::max({nq, nr, nu}));
+  return den > 2.220446049250313e-16 ? std::sqrt(num) / den : std::sqrt(num);
+}
+
 template <class Op>
 NsgsResult SolveNsgs(Op& op, Vec3* r, const NsgsParams& p, NsgsScratch& s) {
   NsgsResult res;
@@ -102,16 +117,9 @@ NsgsResult SolveNsgs(Op& op, Vec3* r, const NsgsParams& p, NsgsScratch& s) {
   const double omega = p.over_relaxation;
   const double nq = op.FreeNormSquared();
   for (int it = 0; it < p.max_iterations; ++it) {
-    double num = 0.0, nu = 0.0, nr = 0.0;
     const bool backward = p.order == ESweepOrder::Alternating && (it & 1);
-    if (!backward) {
-      for (int c = 0; c < n; ++c) num += NsgsUpdate(op, r, c, omega, &s.angle[c], &nu, &nr);
-    } else {
-      for (int c = n - 1; c >= 0; --c) num += NsgsUpdate(op, r, c, omega, &s.angle[c], &nu, &nr);
-    }
+    const double estimate = NsgsSweep(op, r, omega, backward, nq, s.angle.data());
     res.iterations = it + 1;
-    const double den = std::sqrt(std::max({nq, nr, nu}));
-    const double estimate = den > 2.220446049250313e-16 ? std::sqrt(num) / den : std::sqrt(num);
     if (estimate <= p.tolerance || it + 1 == p.max_iterations) {
       res.error = SiconosError(op, r);
       ++res.exact_checks;
