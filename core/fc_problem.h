@@ -56,9 +56,13 @@ class SparseDelassus {
   std::vector<double> blocks_;
 };
 
-/// Solver choice for explicit problems.
+/// Solver choice for explicit problems: NSGS with extrapolation every 50 sweeps.
 struct FcSolveParams {
-  NsgsParams nsgs;
+  NsgsParams nsgs = [] {
+    NsgsParams p;
+    p.extrapolate_every = 50;
+    return p;
+  }();
 };
 
 struct FcSolveResult {
