@@ -22,14 +22,27 @@ const char* CheckFcProblem(const FcProblem& p) {
   return "";
 }
 
-SparseDelassus::SparseDelassus(const FcProblem& p) : p_(p), diag_(p.contacts) {
+SparseDelassus::SparseDelassus(const FcProblem& p) : p_(p), diag_(p.contacts), row_start_(p.contacts + 1, 0) {
+  std::vector<int> slot(p.contacts, -1);
   for (int c = 0; c < p.contacts; ++c) {
-    Mat3 d = Mat3::Zero();
+    const int first = static_cast<int>(col_.size());
+    row_start_[c] = first;
     for (int k = 0; k < 3; ++k)
-      for (SparseRowMatrix::InnerIterator it(p.W, 3 * c + k); it; ++it)
-        if (it.index() >= 3 * c && it.index() < 3 * c + 3) d(k, it.index() - 3 * c) = it.value();
+      for (SparseRowMatrix::InnerIterator it(p.W, 3 * c + k); it; ++it) {
+        const int j = it.index() / 3;
+        if (slot[j] < first) {
+          slot[j] = static_cast<int>(col_.size());
+          col_.push_back(j);
+          blocks_.resize(blocks_.size() + 9, 0.0);
+        }
+        blocks_[9 * static_cast<size_t>(slot[j]) + 3 * (it.index() - 3 * j) + k] = it.value();
+      }
+    Mat3 d = Mat3::Zero();
+    for (int k = first; k < static_cast<int>(col_.size()); ++k)
+      if (col_[k] == c) d = Eigen::Map<const Mat3>(blocks_.data() + 9 * static_cast<size_t>(k));
     diag_[c] = d;
   }
+  row_start_[p.contacts] = static_cast<int>(col_.size());
 }
 
 double FcError(const FcProblem& p, const Eigen::VectorXd& r) {

@@ -25,7 +25,9 @@ struct FcProblem {
 /// a diagonal block that is not positive), or an empty string.
 const char* CheckFcProblem(const FcProblem& p);
 
-/// The NSGS operator on an explicit W: u_c = q_c + W_c. r (row block product).
+/// The NSGS operator on an explicit W: u_c = q_c + sum_j W_cj r_j over the
+/// non-zero 3x3 blocks of block row c, stored contiguously (block CSR: column
+/// block indices and 3x3 column-major blocks), built once from W.
 class SparseDelassus {
  public:
   explicit SparseDelassus(const FcProblem& p);
@@ -34,25 +36,33 @@ class SparseDelassus {
   double Mu(int c) const { return p_.mu[c]; }
   double FreeNormSquared() const { return p_.q.squaredNorm(); }
   Vec3 Velocity(int c, const Vec3* r) const {
-    Vec3 u = p_.q.segment<3>(3 * c);
-    const double* x = r[0].data();
-    for (int k = 0; k < 3; ++k) {
-      double s = 0.0;
-      for (SparseRowMatrix::InnerIterator it(p_.W, 3 * c + k); it; ++it) s += it.value() * x[it.index()];
-      u[k] += s;
+    double u0 = p_.q[3 * c], u1 = p_.q[3 * c + 1], u2 = p_.q[3 * c + 2];
+    const int end = row_start_[c + 1];
+    const double* b = blocks_.data() + 9 * static_cast<size_t>(row_start_[c]);
+    for (int k = row_start_[c]; k < end; ++k, b += 9) {
+      const double* x = r[col_[k]].data();
+      u0 += b[0] * x[0] + b[3] * x[1] + b[6] * x[2];
+      u1 += b[1] * x[0] + b[4] * x[1] + b[7] * x[2];
+      u2 += b[2] * x[0] + b[5] * x[1] + b[8] * x[2];
     }
-    return u;
+    return Vec3(u0, u1, u2);
   }
   void ApplyDelta(int, const Vec3&) {}
 
  private:
   const FcProblem& p_;
   std::vector<Mat3> diag_;
+  std::vector<int> row_start_, col_;
+  std::vector<double> blocks_;
 };
 
-/// Solver choice for explicit problems.
+/// Solver choice for explicit problems: NSGS with extrapolation every 50 sweeps.
 struct FcSolveParams {
-  NsgsParams nsgs;
+  NsgsParams nsgs = [] {
+    NsgsParams p;
+    p.extrapolate_every = 50;
+    return p;
+  }();
 };
 
 struct FcSolveResult {

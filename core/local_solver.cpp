@@ -61,6 +61,33 @@ double RefineAngle(const Mat3& W, const Vec3& q, double mu, double a0, double g0
   return 0.5 * (a0 + a1);
 }
 
+// Newton's method on g(a) from a0: a few steps when a0 is near the root (the
+// previous sweep's angle). Returns false when it does not converge cleanly.
+bool NewtonAngle(const Mat3& W, const Vec3& q, double mu, double a, double* root) {
+  for (int it = 0; it < 12; ++it) {
+    const double c = std::cos(a), s = std::sin(a);
+    const Vec3 dir(1.0, mu * c, mu * s), ddir(0.0, -mu * s, mu * c);
+    const double wn = W.row(0).dot(dir);
+    if (!(wn > 0.0)) return false;
+    const double rn = -q[0] / wn;
+    if (!(rn > 0.0)) return false;
+    const double drn = q[0] * W.row(0).dot(ddir) / (wn * wn);
+    const Vec3 wd = W * dir, wdd = W * ddir;
+    const Vec3 u = rn * wd + q;
+    const Vec3 du = drn * wd + rn * wdd;
+    const double g = u[1] * s - u[2] * c;
+    const double dg = du[1] * s + u[1] * c - du[2] * c + u[2] * s;
+    if (!(dg != 0.0) || !std::isfinite(dg)) return false;
+    const double step = std::clamp(g / dg, -0.5, 0.5);
+    a -= step;
+    if (std::abs(step) < 1e-13) {
+      *root = a;
+      return true;
+    }
+  }
+  return false;
+}
+
 }  // namespace
 
 ELocalCase SolveLocalCoulomb(const Mat3& W, const Vec3& q, double mu, Vec3* r, double* angle_hint) {
@@ -103,7 +130,19 @@ ELocalCase SolveLocalCoulomb(const Mat3& W, const Vec3& q, double mu, Vec3* r, d
   double err_best = std::numeric_limits<double>::infinity();
   Vec3 r_best = Vec3::Zero();
   double a_best = a0;
-  // a local bracket around the guess, then a full scan
+  // Newton from the guess (converges in a few steps from last sweep's angle)
+  {
+    double root;
+    if (NewtonAngle(W, q, mu, a0, &root)) {
+      const double err = best_error(root, &cand);
+      if (err <= 1e-24 * (1.0 + q.squaredNorm())) {
+        err_best = err;
+        r_best = cand;
+        a_best = root;
+      }
+    }
+  }
+  // else a local bracket around the guess, then a full scan
   for (int pass = 0; pass < 2 && err_best > 1e-24 * (1.0 + q.squaredNorm()); ++pass) {
     const int n = pass == 0 ? 8 : 256;
     const double span = pass == 0 ? 0.5 : 2.0 * M_PI;

@@ -19,6 +19,14 @@
 // order: forward, or alternating forward/backward (symmetric Gauss-Seidel),
 // which damps the order-dependent cycles plain forward sweeps fall into on
 // strongly coupled problems.
+// Extrapolation (off by default; SolveFcProblem turns it on): on statically
+// indeterminate problems (several contacts holding one body, W singular, r not
+// unique) Gauss-Seidel drifts slowly along the solution set for thousands of
+// sweeps, or cycles between a few contact states. Every `extrapolate_every`
+// sweeps (from `extrapolate_after` on) the drift of the last period, d = r -
+// r_old, is followed: r + beta d projected on the cones, for beta in 16, 4, 1,
+// each followed by one sweep and an exact error check, against one plain sweep
+// from r; the lowest error wins (so a bad guess costs sweeps, never accuracy).
 // Nothing is allocated when the scratch has room for the contacts.
 #pragma once
 
@@ -37,6 +45,8 @@ struct NsgsParams {
   int max_iterations = 100;         ///< sweeps
   double over_relaxation = 1.0;     ///< omega: r <- r + omega (r_local - r), then projected on the cone
   ESweepOrder order = ESweepOrder::Forward;
+  int extrapolate_every = 0;        ///< K: sweeps between extrapolation trials (0: never)
+  int extrapolate_after = 100;      ///< first trial after this many sweeps
 };
 
 struct NsgsResult {
@@ -44,10 +54,13 @@ struct NsgsResult {
   double error = 0.0;  ///< Siconos fc3d error of the returned forces
   bool converged = false;
   int exact_checks = 0;  ///< exact error passes
+  int extrapolations = 0;  ///< extrapolation trials that won
 };
 
 struct NsgsScratch {
   std::vector<double> angle;  ///< per-contact slip angle hints
+  std::vector<Vec3> r_old, r_base, r_best;        ///< extrapolation only
+  std::vector<double> angle_base, angle_best;     ///< extrapolation only
   void Reserve(int n) { angle.reserve(n); }
 };
 
@@ -89,6 +102,73 @@ inline double NsgsUpdate(Op& op, Vec3* r, int c, double omega, double* angle, do
   return e2;
 }
 
+/// One sweep over the contacts (forward, or backward when `backward`); returns
+/// the in-sweep estimate of the Siconos error (on the mixed iterate).
+template <class Op>
+double NsgsSweep(Op& op, Vec3* r, double omega, bool backward, double nq, double* angle) {
+  const int n = op.NumContacts();
+  double num = 0.0, nu = 0.0, nr = 0.0;
+  if (!backward) {
+    for (int c = 0; c < n; ++c) num += NsgsUpdate(op, r, c, omega, &angle[c], &nu, &nr);
+  } else {
+    for (int c = n - 1; c >= 0; --c) num += NsgsUpdate(op, r, c, omega, &angle[c], &nu, &nr);
+  }
+  const double den = std::sqrt(std::max({nq, nr, nu}));
+  return den > 2.220446049250313e-16 ? std::sqrt(num) / den : std::sqrt(num);
+}
+
+/// Sets the forces to x through the operator.
+template <class Op>
+inline void NsgsAssign(Op& op, Vec3* r, const Vec3* x) {
+  const int n = op.NumContacts();
+  for (int c = 0; c < n; ++c) {
+    const Vec3 dr = x[c] - r[c];
+    if (dr[0] != 0.0 || dr[1] != 0.0 || dr[2] != 0.0) op.ApplyDelta(c, dr);
+    r[c] = x[c];
+  }
+}
+
+/// One extrapolation trial (see above) from r, with r_old the forces K sweeps
+/// ago. Leaves the best candidate in r and returns its exact error.
+template <class Op>
+double NsgsExtrapolate(Op& op, Vec3* r, const NsgsParams& p, NsgsScratch& s, double nq, NsgsResult* res) {
+  const int n = op.NumContacts();
+  s.r_base.assign(r, r + n);
+  s.angle_base.assign(s.angle.begin(), s.angle.begin() + n);
+  NsgsSweep(op, r, p.over_relaxation, false, nq, s.angle.data());
+  double best = SiconosError(op, r);
+  ++res->iterations;
+  ++res->exact_checks;
+  s.r_best.assign(r, r + n);
+  s.angle_best.assign(s.angle.begin(), s.angle.begin() + n);
+  bool won = false;
+  for (const double beta : {16.0, 4.0, 1.0}) {
+    if (res->iterations >= p.max_iterations) break;
+    for (int c = 0; c < n; ++c) {
+      Vec3 x = ProjectOntoCone(s.r_base[c] + beta * (s.r_base[c] - s.r_old[c]), op.Mu(c));
+      if (!x.allFinite()) x = s.r_base[c];
+      const Vec3 dr = x - r[c];
+      op.ApplyDelta(c, dr);
+      r[c] = x;
+    }
+    std::copy(s.angle_base.begin(), s.angle_base.end(), s.angle.begin());
+    NsgsSweep(op, r, p.over_relaxation, false, nq, s.angle.data());
+    const double e = SiconosError(op, r);
+    ++res->iterations;
+    ++res->exact_checks;
+    if (e < best) {
+      best = e;
+      won = true;
+      std::copy(r, r + n, s.r_best.begin());
+      std::copy(s.angle.begin(), s.angle.begin() + n, s.angle_best.begin());
+    }
+  }
+  NsgsAssign(op, r, s.r_best.data());
+  std::copy(s.angle_best.begin(), s.angle_best.end(), s.angle.begin());
+  if (won) ++res->extrapolations;
+  return best;
+}
+
 template <class Op>
 NsgsResult SolveNsgs(Op& op, Vec3* r, const NsgsParams& p, NsgsScratch& s) {
   NsgsResult res;
@@ -99,20 +179,17 @@ NsgsResult SolveNsgs(Op& op, Vec3* r, const NsgsParams& p, NsgsScratch& s) {
   }
   if (static_cast<int>(s.angle.size()) < n) s.angle.resize(n, NAN);
   std::fill(s.angle.begin(), s.angle.begin() + n, NAN);
+  s.r_old.clear();
   const double omega = p.over_relaxation;
   const double nq = op.FreeNormSquared();
-  for (int it = 0; it < p.max_iterations; ++it) {
-    double num = 0.0, nu = 0.0, nr = 0.0;
-    const bool backward = p.order == ESweepOrder::Alternating && (it & 1);
-    if (!backward) {
-      for (int c = 0; c < n; ++c) num += NsgsUpdate(op, r, c, omega, &s.angle[c], &nu, &nr);
-    } else {
-      for (int c = n - 1; c >= 0; --c) num += NsgsUpdate(op, r, c, omega, &s.angle[c], &nu, &nr);
-    }
-    res.iterations = it + 1;
-    const double den = std::sqrt(std::max({nq, nr, nu}));
-    const double estimate = den > 2.220446049250313e-16 ? std::sqrt(num) / den : std::sqrt(num);
-    if (estimate <= p.tolerance || it + 1 == p.max_iterations) {
+  const int K = p.extrapolate_every;
+  int sweep = 0;  // plain sweeps
+  while (res.iterations < p.max_iterations) {
+    const bool backward = p.order == ESweepOrder::Alternating && (sweep & 1);
+    const double estimate = NsgsSweep(op, r, omega, backward, nq, s.angle.data());
+    ++sweep;
+    ++res.iterations;
+    if (estimate <= p.tolerance || res.iterations == p.max_iterations) {
       res.error = SiconosError(op, r);
       ++res.exact_checks;
       if (res.error <= p.tolerance) {
@@ -120,6 +197,15 @@ NsgsResult SolveNsgs(Op& op, Vec3* r, const NsgsParams& p, NsgsScratch& s) {
         break;
       }
     }
+    if (K <= 0 || sweep % K != 0 || res.iterations >= p.max_iterations) continue;
+    if (sweep >= p.extrapolate_after && static_cast<int>(s.r_old.size()) == n) {
+      res.error = NsgsExtrapolate(op, r, p, s, nq, &res);
+      if (res.error <= p.tolerance) {
+        res.converged = true;
+        break;
+      }
+    }
+    s.r_old.assign(r, r + n);
   }
   return res;
 }
