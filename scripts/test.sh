@@ -13,7 +13,10 @@ for preset in $presets; do
   start=$SECONDS
   if [ "$preset" = tsan ]; then
     scripts/build.sh tsan --target graspsim tracking_tests
-    ctest --preset tsan -j "$jobs" -L threads
+    # the threaded tests (receiver, mailboxes, live, record, replay, signals); the determinism
+    # tests render through OSMesa, whose llvmpipe threads are not instrumented: they run in
+    # the release and asan builds
+    ctest --preset tsan -j "$jobs" -L threads -E '^Determinism\.'
   else
     scripts/build.sh "$preset"
     ctest --preset "$preset" -j "$jobs"
