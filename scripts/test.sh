@@ -17,6 +17,11 @@ for preset in $presets; do
     # tests render through OSMesa, whose llvmpipe threads are not instrumented: they run in
     # the release and asan builds
     ctest --preset tsan -j "$jobs" -L threads -E '^Determinism\.'
+  elif [ "$preset" = asan ]; then
+    scripts/build.sh asan
+    # every unit and integration test; the four sweeps that replay whole benchmark
+    # matrices (minutes each under ASan) run in the release build only
+    ctest --preset asan -j "$jobs" -E '^(Stress\.QuickMatrix|Tradeoff\.QuickSweeps|BenchScaling\.QuickSeriesAndFittedSlopes|BenchSkip\.QuickRunShowsEachSkip)$'
   else
     scripts/build.sh "$preset"
     ctest --preset "$preset" -j "$jobs"
