@@ -105,12 +105,14 @@ TEST(LiveFaults, ReportsEachTrackerFaultAndRecovers) {
   // each fault reported, in order
   size_t p = 0;
   for (const char* event : {"tracker at ", "tracker silent", "tracker back", "tracker rate changed from ",
-                            "garbage:", "datagrams parse cleanly again", "flood:", "flood over",
+                            "garbage:", "flood:", "flood over",
                             "rejecting datagrams from 127.0.0.2", "no more datagrams from senders outside"}) {
     const size_t q = Find(out, event, p);
     ASSERT_NE(q, std::string::npos) << "no '" << event << "' after position " << p << " in:\n" << out;
     p = q;
   }
+  // the garbage's end may share a window with the flood's start (a slow receiver drains late)
+  EXPECT_NE(Find(out, "datagrams parse cleanly again", Find(out, "garbage:")), std::string::npos) << out;
   const std::string json = out.substr(out.rfind("{\"live\""));
   EXPECT_EQ(JsonNumber(json, "silences"), 1) << out;
   EXPECT_EQ(JsonNumber(json, "recoveries"), 1) << out;
