@@ -126,8 +126,14 @@ TEST(LiveFaults, ReportsEachTrackerFaultAndRecovers) {
   // receiver parses too slowly for 20,000/s and the kernel drops some (counted, not asserted)
   EXPECT_GE(JsonNumber(json, "datagrams"), 0.9 * static_cast<double>(flood)) << out;
 #endif
-  // the simulation kept stepping through it all (a sanity bound; live's figures are in its summary)
+  // the simulation kept stepping through it all (a sanity bound; live's figures are in its summary).
+  // Sanitized builds step 5-15x slower and share the machine with the test's sender: there the
+  // bound only says the simulation never stalled (it ran 384 Hz under TSan on a loaded 2-core box)
+#ifndef GRASPSIM_SANITIZED
   EXPECT_GT(JsonNumber(json, "sim_rate_hz"), 500.0) << out;
+#else
+  EXPECT_GT(JsonNumber(json, "sim_rate_hz"), 100.0) << out;
+#endif
   std::printf("%s\n", json.c_str());
 }
 
