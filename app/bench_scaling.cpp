@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "app/bench.h"
+#include "app/code_scenes.h"
 #include "core/world.h"
 
 namespace gs::app {
@@ -74,13 +75,6 @@ Timed TimeSteps(World& w, int settle, int steps) {
   return t;
 }
 
-BodySpec PlaneSpec() {
-  BodySpec s;
-  s.name = "plane";
-  s.is_plane = true;
-  return s;
-}
-
 // a slab whose size gives about `contacts` contacts at a fixed control-point density
 // (4,800 control points on a 12 x 12 x 0.8 cm slab give ~2,100 contacts)
 Timed SlabRun(int contacts, int steps, int* cps_out) {
@@ -91,7 +85,7 @@ Timed SlabRun(int contacts, int steps, int* cps_out) {
   *cps_out = cps;
   auto w = std::make_unique<World>();
   w->params.solver.max_iterations = 100;
-  AddBody(*w, PlaneSpec());
+  AddBody(*w, PlaneSpec("plane", Pose{}));
   BodySpec s;
   s.name = "slab";
   s.shape.type = EShape::Box;
@@ -112,7 +106,7 @@ Timed SlabRun(int contacts, int steps, int* cps_out) {
 Timed PointsRun(int points, int steps) {
   auto w = std::make_unique<World>();
   w->params.solver.max_iterations = 100;
-  AddBody(*w, PlaneSpec());
+  AddBody(*w, PlaneSpec("plane", Pose{}));
   BodySpec b;
   b.name = "box";
   b.shape.type = EShape::Box;

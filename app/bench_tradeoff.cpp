@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "app/bench.h"
+#include "app/code_scenes.h"
 #include "app/paths.h"
 #include "app/scene_file.h"
 #include "app/tradeoff.h"
@@ -34,15 +35,6 @@ double Median(std::vector<double> v) {
 }
 
 double Now() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
-
-BodySpec PlaneSpec(const std::string& name, const Pose& pose) {
-  BodySpec s;
-  s.name = name;
-  s.is_plane = true;
-  s.motion = EMotion::Fixed;
-  s.pose = pose;
-  return s;
-}
 
 struct Emitter {
   std::vector<TradeoffRow>* rows;
@@ -298,26 +290,6 @@ bool SolveRow(const NamedProblem& pr, const NsgsParams& np, const char* knob, do
 
 // ---- pinch-hold threshold (validation.cpp's three-finger pinch, friction ramped down) ----
 
-TriangleMesh HexagonalPrism(double circumradius, double height) {
-  TriangleMesh m;
-  const double h = 0.5 * height;
-  for (int k = 0; k < 6; ++k) {  // vertices at 30 + k 60 degrees: face normals at k 60 degrees
-    const double a = M_PI / 6 + k * M_PI / 3;
-    m.vertices.push_back(Vec3(circumradius * std::cos(a), circumradius * std::sin(a), -h));
-  }
-  for (int k = 0; k < 6; ++k) m.vertices.push_back(Vec3(m.vertices[k].x(), m.vertices[k].y(), h));
-  m.vertices.push_back(Vec3(0, 0, -h));
-  m.vertices.push_back(Vec3(0, 0, h));
-  for (int k = 0; k < 6; ++k) {
-    const int a = k, b = (k + 1) % 6;
-    m.triangles.push_back(Eigen::Vector3i(a, b, b + 6));
-    m.triangles.push_back(Eigen::Vector3i(a, b + 6, a + 6));
-    m.triangles.push_back(Eigen::Vector3i(12, b, a));
-    m.triangles.push_back(Eigen::Vector3i(13, a + 6, b + 6));
-  }
-  return m;
-}
-
 struct PinchRamp {
   double mu_slip = NAN;  // mu / mu* at which the prism started to slip
   bool slipped = false;
@@ -339,53 +311,17 @@ PinchRamp RunPinchRamp(const NsgsParams& solver, bool quick) {
   auto w = std::make_unique<World>();
   w->params.dt = 1e-3;
   w->params.solver = solver;
-  AddBody(*w, PlaneSpec("table", Pose{}));
-  TriangleMesh mesh = HexagonalPrism(0.02, 0.06);
-  ValidateAndOrientMesh(&mesh);
-  BodySpec pr;
-  pr.name = "prism";
-  pr.mesh = &mesh;
-  pr.shape.type = EShape::Cylinder;  // inertia of the enclosing cylinder
-  pr.shape.radius = 0.0185;
-  pr.shape.half_length = 0.03;
-  pr.geometry.points = quick ? 4000 : 8000;
-  pr.geometry.control_points = quick ? 500 : 1000;
-  pr.mass = m;
-  pr.pose = Pose::Translation(Vec3(0, 0, 0.03));
-  pr.emits_contacts = false;
-  const int prism = AddBody(*w, pr);
-  const double apothem = 0.02 * std::cos(M_PI / 6);
-  std::vector<int> tips;
-  std::vector<Pose> start;
-  for (int k = 0; k < 3; ++k) {
-    const double a = k * 2.0 * M_PI / 3.0;
-    const Vec3 radial(std::cos(a), std::sin(a), 0);
-    BodySpec t;
-    t.name = "tip" + std::to_string(k);
-    t.shape.type = EShape::Sphere;
-    t.shape.radius = 0.008;
-    t.geometry.points = 2400;
-    t.geometry.control_points = 320;
-    t.mass = 0.01;
-    t.deformation.model = EDeformation::Gaussian;
-    t.deformation.stiffness = 300;
-    t.deformation.damping = 0.5;
-    t.deformation.influence_radius = 0.0015;
-    const Pose target{Eigen::AngleAxisd(a + M_PI, Vec3::UnitZ()).toRotationMatrix(),
-                      radial * (apothem + 0.0078) + Vec3(0, 0, 0.03)};
-    t.pose = target;
-    t.drive.enabled = true;
-    t.drive.stiffness = Vec3(0, 3000, 3000);
-    t.drive.damping = Vec3(0.5, 20, 20);
-    t.drive.angular_stiffness = Vec3::Constant(0.5);
-    t.drive.angular_damping = Vec3::Constant(0.01);
-    t.drive.force = Vec3(P, 0, 0);
-    t.drive.target = target;
-    tips.push_back(AddBody(*w, t));
-    start.push_back(target);
-  }
+  PinchRigSpec spec;
+  spec.prism_mass = m;
+  spec.squeeze_force = P;
+  spec.prism_points = quick ? 4000 : 8000;
+  spec.prism_control_points = quick ? 500 : 1000;
+  const PinchRig rig = AddPinchRig(*w, spec);
+  const int prism = rig.prism;
+  const std::vector<int>& tips = rig.tips;
+  const std::vector<Pose>& start = rig.tip_start;
   PinchRamp out;
-  if (prism < 0 || *std::min_element(tips.begin(), tips.end()) < 0) return out;
+  if (!rig.ok()) return out;
   w->Finalize();
   const double dt = w->params.dt;
   const double t_ramp = squeeze + lift_time + settle, t_end = t_ramp + ramp;

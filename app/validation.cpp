@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <memory>
 
+#include "app/code_scenes.h"
 #include "app/paths.h"
 #include "app/scene_file.h"
 #include "core/world.h"
@@ -13,15 +14,6 @@ namespace gs::app {
 namespace {
 
 constexpr double kG = 9.81;
-
-BodySpec PlaneSpec(const std::string& name, const Pose& pose) {
-  BodySpec s;
-  s.name = name;
-  s.is_plane = true;
-  s.motion = EMotion::Fixed;
-  s.pose = pose;
-  return s;
-}
 
 ValidationResult Result(const std::string& name, double error, double tolerance, const std::string& unit,
                         const std::string& detail) {
@@ -104,30 +96,6 @@ std::vector<ValidationResult> ValidateIncline(const ValidationOptions& opt) {
 
 namespace {
 
-TriangleMesh HexagonalPrism(double circumradius, double height) {
-  TriangleMesh m;
-  const double h = 0.5 * height;
-  // vertices at 30 + k*60 degrees: faces' normals at k*60 degrees
-  for (int k = 0; k < 6; ++k) {
-    const double a = M_PI / 6 + k * M_PI / 3;
-    m.vertices.push_back(Vec3(circumradius * std::cos(a), circumradius * std::sin(a), -h));
-  }
-  for (int k = 0; k < 6; ++k) {
-    const Vec3 v = m.vertices[k];
-    m.vertices.push_back(Vec3(v.x(), v.y(), h));
-  }
-  m.vertices.push_back(Vec3(0, 0, -h));  // 12: bottom centre
-  m.vertices.push_back(Vec3(0, 0, h));   // 13: top centre
-  for (int k = 0; k < 6; ++k) {
-    const int a = k, b = (k + 1) % 6;
-    m.triangles.push_back(Eigen::Vector3i(a, b, b + 6));
-    m.triangles.push_back(Eigen::Vector3i(a, b + 6, a + 6));
-    m.triangles.push_back(Eigen::Vector3i(12, b, a));
-    m.triangles.push_back(Eigen::Vector3i(13, a + 6, b + 6));
-  }
-  return m;
-}
-
 struct PinchRun {
   bool held = false;
   double creep = 0.0;  // |dz/dt| over the last second of the hold (m/s)
@@ -143,53 +111,19 @@ PinchRun RunPinch(double mu_factor, bool quick) {
   w.params.solver.tolerance = 1e-9;
   w.params.solver.max_iterations = 300;
   w.params.default_friction = 0.5;
-  const int table = AddBody(w, PlaneSpec("table", Pose{}));
-  (void)table;
-  static TriangleMesh prism_mesh = HexagonalPrism(0.02, 0.06);
-  EGeometryError e;
-  TriangleMesh mesh = prism_mesh;
-  ValidateAndOrientMesh(&mesh);
-  BodySpec pr;
-  pr.name = "prism";
-  pr.mesh = &mesh;
-  pr.shape.type = EShape::Cylinder;  // inertia of the enclosing cylinder
-  pr.shape.radius = 0.0185;
-  pr.shape.half_length = 0.03;
-  pr.geometry.points = quick ? 8000 : 12000;
-  pr.geometry.control_points = quick ? 1000 : 1600;
-  pr.mass = m;
-  pr.pose = Pose::Translation(Vec3(0, 0, 0.03));
-  pr.emits_contacts = false;  // one-pass contact: the fingertips' points on the flat faces
-  const int prism = AddBody(w, pr, &e);
-  const double apothem = 0.02 * std::cos(M_PI / 6);
-  std::vector<int> tips;
-  for (int k = 0; k < 3; ++k) {
-    const double a = k * 2.0 * M_PI / 3.0;
-    const Vec3 radial(std::cos(a), std::sin(a), 0);
-    BodySpec t;
-    t.name = "tip" + std::to_string(k);
-    t.shape.type = EShape::Sphere;
-    t.shape.radius = 0.008;
-    t.geometry.points = 2400;
-    t.geometry.control_points = 320;
-    t.mass = 0.01;
-    t.deformation.model = EDeformation::Gaussian;
-    t.deformation.stiffness = 300;
-    t.deformation.damping = 0.5;
-    t.deformation.influence_radius = 0.0015;
-    // drive frame: x toward the prism axis; pushed with P along x, stiff across and vertically
-    const Pose target{Eigen::AngleAxisd(a + M_PI, Vec3::UnitZ()).toRotationMatrix(),
-                      radial * (apothem + 0.0078) + Vec3(0, 0, 0.03)};
-    t.pose = target;
-    t.drive.enabled = true;
-    t.drive.stiffness = Vec3(0, 3000, 3000);
-    t.drive.damping = Vec3(0.5, 20, 20);
-    t.drive.angular_stiffness = Vec3::Constant(0.5);
-    t.drive.angular_damping = Vec3::Constant(0.01);
-    t.drive.force = Vec3(P, 0, 0);
-    t.drive.target = target;
-    tips.push_back(AddBody(w, t, &e));
+  PinchRigSpec spec;
+  spec.prism_mass = m;
+  spec.squeeze_force = P;
+  spec.prism_points = quick ? 8000 : 12000;
+  spec.prism_control_points = quick ? 1000 : 1600;
+  const PinchRig rig = AddPinchRig(w, spec);
+  PinchRun r;
+  if (!rig.ok()) {
+    r.finite = false;
+    return r;
   }
+  const int prism = rig.prism;
+  const std::vector<int>& tips = rig.tips;
   w.Finalize();
   for (int k : tips) w.SetFriction(k, prism, mu_factor * mu_star);
   // The lift must not ask friction for more than the margin it has: at mu = 1.005 mu*
@@ -201,10 +135,8 @@ PinchRun RunPinch(double mu_factor, bool quick) {
   // (1 cm in 2 s; quick: 0.029 m/s^2, 5 mm in 1 s), well inside that margin.
   const double lift = quick ? 0.005 : 0.01, lift_time = quick ? 1.0 : 2.0, hold = quick ? 1.0 : 10.0;
   const int steps = static_cast<int>((0.2 + lift_time + hold) / w.params.dt);
-  std::vector<Pose> start;
-  for (int k : tips) start.push_back(w.bodies[k].drive.target);
+  const std::vector<Pose>& start = rig.tip_start;
   double z_mark = 0.0;
-  PinchRun r;
   for (int i = 0; i < steps; ++i) {
     const double t = w.time + w.params.dt;
     // squeeze 0.2 s on the table, lift over lift_time, hold
