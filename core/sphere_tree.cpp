@@ -43,6 +43,10 @@ double LargestNearestGap(const PointCloud& cloud, const PointGrid& grid, double 
   return worst;
 }
 
+// a leaf's cached patch is trusted when its neighbourhood's normals agree with it
+// within this angle (cosine of 15 degrees)
+constexpr double kPatchMinCos = 0.9659;
+
 }  // namespace
 
 SphereTree::EBuildError SphereTree::Build(const PointCloud& cloud, const MlsParams& mls,
@@ -142,6 +146,25 @@ SphereTree::EBuildError SphereTree::Build(const PointCloud& cloud, const MlsPara
     std::sort(nbrs.begin(), nbrs.end());
     nbr_items_.insert(nbr_items_.end(), nbrs.begin(), nbrs.end());
     nbr_start_[l + 1] = static_cast<int>(nbr_items_.size());
+  }
+
+  // the MLS surface at each leaf centre, from its neighbourhood
+  patches_.assign(leaf_node_.size(), MlsPatch{});
+  patch_ok_.assign(leaf_node_.size(), 0);
+  for (size_t l = 0; l < leaf_node_.size(); ++l) {
+    int count = 0;
+    const int* idx = neighbourhood(static_cast<int>(l), &count);
+    MlsPatch& patch = patches_[l];
+    bool ok = MlsFitPatch(cloud.positions.data(), cloud.normals.data(), idx, count, nodes_[leaf_node_[l]].center,
+                          mls, &patch) &&
+              patch.origin.allFinite() && patch.normal.allFinite() &&
+              std::isfinite(patch.c[0] + patch.c[1] + patch.c[2] + patch.c[3] + patch.c[4] + patch.c[5]);
+    // trusted only where the surface is smooth over the whole neighbourhood: every
+    // point's normal within kPatchMaxDegrees of the patch's normal below it (a
+    // sharp edge nearby fails this; there the foot depends on the start)
+    for (int k = 0; ok && k < count; ++k)
+      ok = cloud.normals[idx[k]].dot(patch.NormalBelow(cloud.positions[idx[k]])) > kPatchMinCos;
+    patch_ok_[l] = ok;
   }
 
   hot_.resize(nodes_.size());
