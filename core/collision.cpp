@@ -12,6 +12,20 @@ using Clock = std::chrono::steady_clock;
 
 // bound on how much one projection fit shrinks the distance to the surface's foot
 constexpr double kContraction = 0.05;
+// a contact deeper than this fraction of the bandwidth must have its foot's
+// normal within acos(kFacingCos) of facing the query leaf's normal
+constexpr double kDeepFraction = 0.1;
+constexpr double kFacingCos = 0.25;
+// a leaf whose point normals are all within 3 degrees of their mean is flat, one
+// whose normals spread beyond 30 degrees holds a sharp edge; in between it is
+// smoothly curved
+constexpr double kFlatCos = 0.9986;
+constexpr double kSharpCos = 0.866;
+
+bool SmoothlyCurved(const SphereTree& t, int leaf) {
+  const double c = t.leaf_flatness(leaf);
+  return c > kSharpCos && c <= kFlatCos;
+}
 
 double Seconds(Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double>(b - a).count(); }
 
@@ -218,6 +232,21 @@ void ProjectSide(int id_q, const SphereTree& tq, const Pose& q_to_s, int id_s, c
       continue;
     }
     const double gap = (x - proj.point).dot(proj.normal);  // eq. 4: negative inside
+    // Surfaces in contact face each other. Where a flat face crosses another body's
+    // flat face at an angle (a box's top face inside a box dropped on it, near that
+    // box's side face), a point deeper than its distance to the adjacent face finds
+    // its closest foot there, its normal across the query's own: such a contact
+    // pushes sideways where the bodies press along their normals, and two of them
+    // on opposite sides of the upper box ask for opposite motions, which no force
+    // satisfies. Between piecewise-flat surfaces (faces and sharp edges) it is
+    // dropped: the faces that do face each other give that overlap through their
+    // own contacts. Where either surface is smoothly curved, the normal turns with
+    // the foot and a foot across the query's normal is the true closest point.
+    if (gap < -kDeepFraction * h && proj.normal.dot(q_to_s.R * tq.leaf_normal(lq)) > -kFacingCos &&
+        !SmoothlyCurved(tq, lq) && !SmoothlyCurved(ts, coupled)) {
+      ++stats->rejected;
+      continue;
+    }
     if (!(gap < params.contact_threshold)) continue;
     Contact c;
     c.body[0] = id_q;

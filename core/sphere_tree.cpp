@@ -117,6 +117,7 @@ SphereTree::EBuildError SphereTree::Build(const PointCloud& cloud, const MlsPara
   // leaf slabs: mean normal and the highest point above the centre along it
   leaf_normal_.assign(leaf_node_.size(), Vec3::UnitZ());
   leaf_height_.assign(leaf_node_.size(), 0.0);
+  leaf_min_cos_.assign(leaf_node_.size(), 1.0);
   for (size_t l = 0; l < leaf_node_.size(); ++l) {
     const TreeNode& node = nodes_[leaf_node_[l]];
     Vec3 nsum = Vec3::Zero();
@@ -129,6 +130,7 @@ SphereTree::EBuildError SphereTree::Build(const PointCloud& cloud, const MlsPara
       min_cos = std::min(min_cos, cloud.normals[i].dot(n));
     }
     leaf_normal_[l] = n;
+    leaf_min_cos_[l] = min_cos;
     // between samples the surface may rise by up to the coverage margin where the leaf
     // bends; a leaf whose normals spread past 60 degrees gets no slab (height = radius)
     leaf_height_[l] = min_cos > 0.5 ? h + 0.5 * cover_margin_ : node.rest_radius;

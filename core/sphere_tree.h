@@ -95,6 +95,9 @@ class SphereTree {
   }
   /// Mean outward normal of a leaf's points (unit, rest frame).
   const Vec3& leaf_normal(int leaf) const { return leaf_normal_[leaf]; }
+  /// Cosine of the widest angle between a leaf's point normals and its mean
+  /// normal: 1 on a flat face, lower where the leaf bends or straddles an edge.
+  double leaf_flatness(int leaf) const { return leaf_min_cos_[leaf]; }
   /// Height of the leaf's surface above its centre along leaf_normal (m, >= 0),
   /// including the refit growth: no surface point of the leaf lies higher.
   double leaf_height(int leaf) const {
@@ -134,6 +137,7 @@ class SphereTree {
   std::vector<int> nbr_start_, nbr_items_;
   std::vector<Vec3> leaf_normal_;
   std::vector<double> leaf_height_;
+  std::vector<double> leaf_min_cos_;
   std::vector<MlsPatch> patches_;
   std::vector<uint8_t> patch_ok_;
   std::vector<double> growth_;      // radius growth of each node over its rest radius (m)
