@@ -39,7 +39,7 @@ int RunBenchStep(const BenchOptions& opt) {
     w.Step();
   }
   std::vector<double> total, collision, space, solve, motion, free_motion, iters;
-  std::vector<double> contacts;
+  std::vector<double> contacts, projections, fits, node_pairs, leaf_pairs, traverse, interp;
   double residual_max = 0.0;
   int unconverged = 0, rejected = 0;
   const int steps = static_cast<int>(std::llround(window / w.params.dt));
@@ -55,6 +55,12 @@ int RunBenchStep(const BenchOptions& opt) {
     motion.push_back(1e3 * p.constrained_motion);
     iters.push_back(p.iterations);
     contacts.push_back(p.contacts);
+    projections.push_back(p.collision.projections);
+    fits.push_back(p.collision.fits);
+    node_pairs.push_back(p.collision.node_pairs);
+    leaf_pairs.push_back(p.collision.leaf_pairs);
+    traverse.push_back(1e3 * p.traverse);
+    interp.push_back(1e3 * p.interpenetration);
     residual_max = std::max(residual_max, p.residual);
     unconverged += p.converged ? 0 : 1;
     rejected += p.rejected ? 1 : 0;
@@ -66,12 +72,16 @@ int RunBenchStep(const BenchOptions& opt) {
                   static_cast<int>(contacts[i]), static_cast<int>(iters[i]), total[i]);
     std::printf(
         "{\"bench\":\"step\",\"scene\":\"%s\",\"steps\":%d,\"contacts\":%d,\"free_motion_ms_median\":%.4f,"
-        "\"collision_ms_median\":%.4f,\"contact_space_ms_median\":%.4f,\"solve_ms_median\":%.4f,"
+        "\"collision_ms_median\":%.4f,\"traverse_ms_median\":%.4f,\"interpenetration_ms_median\":%.4f,"
+        "\"sphere_tests_median\":%d,\"leaf_pairs_median\":%d,\"projections_median\":%d,\"mls_fits_median\":%d,"
+        "\"contact_space_ms_median\":%.4f,\"solve_ms_median\":%.4f,"
         "\"constrained_motion_ms_median\":%.4f,\"gs_iterations_median\":%d,\"gs_iterations_max\":%d,"
         "\"residual_max\":%.3g,\"unconverged_steps\":%d,\"rejected_steps\":%d,\"target_ms\":1.0,"
         "\"step_ms_median\":%.4f}\n",
         built->name.c_str(), steps, static_cast<int>(MedianOf(contacts)), MedianOf(free_motion), MedianOf(collision),
-        MedianOf(space), MedianOf(solve), MedianOf(motion), static_cast<int>(MedianOf(iters)),
+        MedianOf(traverse), MedianOf(interp), static_cast<int>(MedianOf(node_pairs)),
+        static_cast<int>(MedianOf(leaf_pairs)), static_cast<int>(MedianOf(projections)),
+        static_cast<int>(MedianOf(fits)), MedianOf(space), MedianOf(solve), MedianOf(motion), static_cast<int>(MedianOf(iters)),
         static_cast<int>(*std::max_element(iters.begin(), iters.end())), residual_max, unconverged, rejected,
         step_ms);
   } else {
@@ -80,6 +90,10 @@ int RunBenchStep(const BenchOptions& opt) {
     std::printf("  contacts (median)              %8d\n", static_cast<int>(MedianOf(contacts)));
     std::printf("  free motion (ms, median)       %8.4f\n", MedianOf(free_motion));
     std::printf("  collision detection (ms)       %8.4f\n", MedianOf(collision));
+    std::printf("    traverse / interpenetration  %8.4f / %.4f\n", MedianOf(traverse), MedianOf(interp));
+    std::printf("    sphere tests %d, leaf pairs %d, projections %d, MLS fits %d (medians)\n",
+                static_cast<int>(MedianOf(node_pairs)), static_cast<int>(MedianOf(leaf_pairs)),
+                static_cast<int>(MedianOf(projections)), static_cast<int>(MedianOf(fits)));
     std::printf("  contact space (ms)             %8.4f\n", MedianOf(space));
     std::printf("  solve (ms)                     %8.4f\n", MedianOf(solve));
     std::printf("  constrained motion (ms)        %8.4f\n", MedianOf(motion));

@@ -59,6 +59,7 @@ struct CollisionStats {
   int node_pairs = 0;     ///< sphere-sphere tests during traversal
   int leaf_pairs = 0;     ///< overlapping leaf pairs found
   int projections = 0;    ///< MLS projections done
+  int fits = 0;           ///< MLS fits (projection iterations) done
   int rejected = 0;       ///< projections rejected (left the border or failed)
   int culled = 0;         ///< leaves skipped: above every overlapping leaf's slab by more than delta_eps
   int contacts = 0;       ///< contacts added
@@ -80,6 +81,8 @@ struct CollisionScratch {
   std::vector<double> best_a_d2, best_b_d2;
   std::vector<double> lift_a, lift_b;    // per leaf: lowest height above the other body's overlapping leaf slabs
   std::vector<int> touched_a, touched_b;
+  std::vector<TraversalNode> moved;      // the smaller tree's nodes in the other body's frame
+  std::vector<int> node_stack, ball;     // gathering the points around a query off the surface
   void Reserve(int max_leaves, int max_pairs);
 };
 
@@ -112,6 +115,9 @@ struct ContactBuffer {
 /// that deep interpenetration still yields a gap.
 bool ProjectOntoSurface(const Vec3* positions, const Vec3* normals, const int* idx, int count, const Vec3& x,
                         const MlsParams& mls, MlsProjection* out);
+/// The same, with the fits starting at `start` (near x's foot on the surface).
+bool ProjectOntoSurfaceFrom(const Vec3* positions, const Vec3* normals, const int* idx, int count, const Vec3& x,
+                            const Vec3& start, const MlsParams& mls, MlsProjection* out);
 
 /// Appends the contacts between bodies a and b (ids id_a, id_b) to `out`.
 void CollidePair(int id_a, const CollisionShape& a, const Pose& pose_a, int id_b, const CollisionShape& b,

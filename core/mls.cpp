@@ -58,13 +58,11 @@ bool FitAt(const Vec3* positions, const Vec3* normals, const int* idx, int count
   return n.allFinite() && a.allFinite();
 }
 
-// weighted least-squares quadratic height field over the plane (origin a, normal n)
-// of the kept points; returns false when ill-conditioned. At the query (offset -a
-// from the plane's origin) gives the surface point offset and the normal.
-bool QuadricAt(const Weighted* kept, int k, const Vec3& a, const Vec3& n, double h, Vec3* point_offset,
-               Vec3* normal) {
+// weighted least-squares quadratic height field over the plane (origin a, normal n,
+// tangents t1, t2) of the kept points, in units of h; false when ill-conditioned
+bool QuadricCoefficients(const Weighted* kept, int k, const Vec3& a, const Vec3& n, const Vec3& t1, const Vec3& t2,
+                         double h, Eigen::Matrix<double, 6, 1>* coeffs) {
   if (k < 8) return false;
-  const Vec3 t1 = AnyPerpendicular(n), t2 = n.cross(t1);
   // coordinates in units of the bandwidth keep the moments well scaled
   const double s = 1.0 / h;
   // moments of the monomials (1, u, v, uu, uv, vv): sums of w u^i v^j up to degree 4
@@ -109,15 +107,41 @@ bool QuadricAt(const Weighted* kept, int k, const Vec3& a, const Vec3& n, double
   // a tiny pivot relative to the largest means the neighbours do not span a quadric
   const auto D = ldlt.vectorD();
   if (!(D.minCoeff() > 1e-12 * D.maxCoeff())) return false;
-  const Eigen::Matrix<double, 6, 1> c = ldlt.solve(b);
-  if (!c.allFinite()) return false;
-  const double u = -a.dot(t1) * s, v = -a.dot(t2) * s;
-  const double g = c[0] + c[1] * u + c[2] * v + c[3] * u * u + c[4] * u * v + c[5] * v * v;
-  const double gu = c[1] + 2.0 * c[3] * u + c[4] * v;
-  const double gv = c[2] + c[4] * u + 2.0 * c[5] * v;
-  *point_offset = a + (u * t1 + v * t2 + g * n) * h;
-  *normal = (n - gu * t1 - gv * t2).normalized();
-  return point_offset->allFinite() && normal->allFinite();
+  *coeffs = ldlt.solve(b);
+  return coeffs->allFinite();
+}
+
+// The point of the height field g(u, v) = c . (1, u, v, uu, uv, vv) closest to
+// (U, V, Z), all in units of h, by Newton from (U, V). False when there is no
+// unique closest point near it (the query beyond the centre of curvature, or
+// Newton not settling): the caller then takes the point straight below.
+bool ClosestOnQuadric(const Eigen::Matrix<double, 6, 1>& c, double U, double V, double Z, double* u_out,
+                      double* v_out) {
+  double u = U, v = V;
+  for (int it = 0; it < 8; ++it) {
+    const double g = c[0] + c[1] * u + c[2] * v + c[3] * u * u + c[4] * u * v + c[5] * v * v;
+    const double gu = c[1] + 2.0 * c[3] * u + c[4] * v;
+    const double gv = c[2] + c[4] * u + 2.0 * c[5] * v;
+    const double r = g - Z;
+    // gradient and Hessian of half the squared distance
+    const double fu = (u - U) + r * gu, fv = (v - V) + r * gv;
+    const double a11 = 1.0 + gu * gu + 2.0 * r * c[3];
+    const double a12 = gu * gv + r * c[4];
+    const double a22 = 1.0 + gv * gv + 2.0 * r * c[5];
+    const double det = a11 * a22 - a12 * a12;
+    if (!(a11 > 0.0 && det > 1e-12)) return false;
+    const double du = -(a22 * fu - a12 * fv) / det;
+    const double dv = -(a11 * fv - a12 * fu) / det;
+    u += du;
+    v += dv;
+    if (!(std::abs(u - U) < 4.0 && std::abs(v - V) < 4.0)) return false;  // left the fit's support
+    if (du * du + dv * dv < 1e-24) {
+      *u_out = u;
+      *v_out = v;
+      return true;
+    }
+  }
+  return false;
 }
 
 }  // namespace
@@ -151,29 +175,90 @@ double MlsImplicit(const Vec3* positions, const Vec3* normals, const int* idx, i
   return f.normal.dot(f.mean - p);
 }
 
+Vec3 MlsPatch::Closest(const Vec3& x) const {
+  const Vec3 d = (x - origin) / h;
+  const double U = d.dot(t1), V = d.dot(t2), Z = d.dot(normal);
+  double u = U, v = V;
+  const Eigen::Matrix<double, 6, 1> cc = Eigen::Map<const Eigen::Matrix<double, 6, 1>>(c);
+  if (!ClosestOnQuadric(cc, U, V, Z, &u, &v)) {
+    u = U;
+    v = V;
+  }
+  const double g = c[0] + c[1] * u + c[2] * v + c[3] * u * u + c[4] * u * v + c[5] * v * v;
+  return origin + (u * t1 + v * t2 + g * normal) * h;
+}
+
+bool MlsFitPatch(const Vec3* positions, const Vec3* normals, const int* idx, int count, const Vec3& p,
+                 const MlsParams& params, MlsPatch* out) {
+  Weighted kept[kMaxWeighted];
+  LocalFit f;
+  if (!FitAt(positions, normals, idx, count, p, params, kept, &f)) return false;
+  out->origin = p + f.mean_offset;
+  out->normal = f.normal;
+  out->t1 = AnyPerpendicular(f.normal);
+  out->t2 = f.normal.cross(out->t1);
+  out->h = params.bandwidth;
+  Eigen::Matrix<double, 6, 1> c = Eigen::Matrix<double, 6, 1>::Zero();
+  if (params.quadric && !QuadricCoefficients(kept, f.count, f.mean_offset, f.normal, out->t1, out->t2,
+                                             params.bandwidth, &c))
+    c.setZero();
+  for (int i = 0; i < 6; ++i) out->c[i] = c[i];
+  return true;
+}
+
 bool MlsProject(const Vec3* positions, const Vec3* normals, const int* idx, int count, const Vec3& p,
                 const MlsParams& params, MlsProjection* out) {
+  return MlsProjectFrom(positions, normals, idx, count, p, p, params, out);
+}
+
+bool MlsProjectStep(const Vec3* positions, const Vec3* normals, const int* idx, int count, const Vec3& x,
+                    const Vec3& q, const MlsParams& params, Vec3* next, Vec3* normal) {
   Weighted kept[kMaxWeighted];
-  Vec3 q = p;
+  const double h = params.bandwidth;
+  LocalFit f;
+  if (!FitAt(positions, normals, idx, count, q, params, kept, &f)) return false;
+  // the reference plane (a, n) at q, then the quadric over it; the new point is
+  // the one of the quadric closest to x (of the plane when there is no quadric)
+  const Vec3 origin = q + f.mean_offset;
+  const Vec3& n = f.normal;
+  *next = x - (x - origin).dot(n) * n;
+  *normal = n;
+  Eigen::Matrix<double, 6, 1> c;
+  const Vec3 t1 = AnyPerpendicular(n), t2 = n.cross(t1);
+  if (params.quadric && QuadricCoefficients(kept, f.count, f.mean_offset, n, t1, t2, h, &c)) {
+    const Vec3 d = (x - origin) / h;
+    const double U = d.dot(t1), V = d.dot(t2), Z = d.dot(n);
+    double u = U, v = V;
+    if (!ClosestOnQuadric(c, U, V, Z, &u, &v)) {
+      u = U;
+      v = V;
+    }
+    const double g = c[0] + c[1] * u + c[2] * v + c[3] * u * u + c[4] * u * v + c[5] * v * v;
+    const double gu = c[1] + 2.0 * c[3] * u + c[4] * v;
+    const double gv = c[2] + c[4] * u + 2.0 * c[5] * v;
+    const Vec3 qn = (n - gu * t1 - gv * t2).normalized();
+    const Vec3 qp = origin + (u * t1 + v * t2 + g * n) * h;
+    if (qp.allFinite() && qn.allFinite()) {
+      *next = qp;
+      *normal = qn;
+    }
+  }
+  return next->allFinite() && normal->allFinite();
+}
+
+bool MlsProjectFrom(const Vec3* positions, const Vec3* normals, const int* idx, int count, const Vec3& x,
+                    const Vec3& start, const MlsParams& params, MlsProjection* out) {
+  Vec3 q = start;
   Vec3 normal = Vec3::UnitZ();
   out->converged = false;
   out->iterations = 0;
   for (int it = 0; it < params.max_iterations; ++it) {
-    LocalFit f;
-    if (!FitAt(positions, normals, idx, count, q, params, kept, &f)) return false;
-    // onto the reference plane, then onto the quadric over it
-    Vec3 step = f.mean_offset.dot(f.normal) * f.normal;
-    normal = f.normal;
-    if (params.quadric) {
-      Vec3 offset, qn;
-      if (QuadricAt(kept, f.count, f.mean_offset, f.normal, params.bandwidth, &offset, &qn)) {
-        step = offset;
-        normal = qn;
-      }
-    }
-    q += step;
+    Vec3 next;
+    if (!MlsProjectStep(positions, normals, idx, count, x, q, params, &next, &normal)) return false;
+    const double moved = (next - q).norm();
+    q = next;
     out->iterations = it + 1;
-    if (step.norm() < params.tolerance * params.bandwidth) {
+    if (moved < params.tolerance * params.bandwidth) {
       out->converged = true;
       break;
     }

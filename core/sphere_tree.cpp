@@ -43,6 +43,10 @@ double LargestNearestGap(const PointCloud& cloud, const PointGrid& grid, double 
   return worst;
 }
 
+// a leaf's cached patch is trusted when its neighbourhood's normals agree with it
+// within this angle (cosine of 15 degrees)
+constexpr double kPatchMinCos = 0.9659;
+
 }  // namespace
 
 SphereTree::EBuildError SphereTree::Build(const PointCloud& cloud, const MlsParams& mls,
@@ -113,6 +117,7 @@ SphereTree::EBuildError SphereTree::Build(const PointCloud& cloud, const MlsPara
   // leaf slabs: mean normal and the highest point above the centre along it
   leaf_normal_.assign(leaf_node_.size(), Vec3::UnitZ());
   leaf_height_.assign(leaf_node_.size(), 0.0);
+  leaf_min_cos_.assign(leaf_node_.size(), 1.0);
   for (size_t l = 0; l < leaf_node_.size(); ++l) {
     const TreeNode& node = nodes_[leaf_node_[l]];
     Vec3 nsum = Vec3::Zero();
@@ -125,6 +130,7 @@ SphereTree::EBuildError SphereTree::Build(const PointCloud& cloud, const MlsPara
       min_cos = std::min(min_cos, cloud.normals[i].dot(n));
     }
     leaf_normal_[l] = n;
+    leaf_min_cos_[l] = min_cos;
     // between samples the surface may rise by up to the coverage margin where the leaf
     // bends; a leaf whose normals spread past 60 degrees gets no slab (height = radius)
     leaf_height_[l] = min_cos > 0.5 ? h + 0.5 * cover_margin_ : node.rest_radius;
@@ -142,6 +148,25 @@ SphereTree::EBuildError SphereTree::Build(const PointCloud& cloud, const MlsPara
     std::sort(nbrs.begin(), nbrs.end());
     nbr_items_.insert(nbr_items_.end(), nbrs.begin(), nbrs.end());
     nbr_start_[l + 1] = static_cast<int>(nbr_items_.size());
+  }
+
+  // the MLS surface at each leaf centre, from its neighbourhood
+  patches_.assign(leaf_node_.size(), MlsPatch{});
+  patch_ok_.assign(leaf_node_.size(), 0);
+  for (size_t l = 0; l < leaf_node_.size(); ++l) {
+    int count = 0;
+    const int* idx = neighbourhood(static_cast<int>(l), &count);
+    MlsPatch& patch = patches_[l];
+    bool ok = MlsFitPatch(cloud.positions.data(), cloud.normals.data(), idx, count, nodes_[leaf_node_[l]].center,
+                          mls, &patch) &&
+              patch.origin.allFinite() && patch.normal.allFinite() &&
+              std::isfinite(patch.c[0] + patch.c[1] + patch.c[2] + patch.c[3] + patch.c[4] + patch.c[5]);
+    // trusted only where the surface is smooth over the whole neighbourhood: every
+    // point's normal within kPatchMaxDegrees of the patch's normal below it (a
+    // sharp edge nearby fails this; there the foot depends on the start)
+    for (int k = 0; ok && k < count; ++k)
+      ok = cloud.normals[idx[k]].dot(patch.NormalBelow(cloud.positions[idx[k]])) > kPatchMinCos;
+    patch_ok_[l] = ok;
   }
 
   hot_.resize(nodes_.size());

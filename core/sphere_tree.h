@@ -9,6 +9,8 @@
 // - Each leaf keeps its neighbourhood: every point within its radius plus the
 //   r_eps border. Collision detection projects onto the MLS surface of those
 //   points only (the "coupled node plus r_eps border" of the paper).
+// - Each leaf caches the MLS surface fitted at its centre as a quadratic patch;
+//   a projection near the leaf starts on it, usually one fit from converged.
 // - Refit after deformation is bottom-up from the leaves whose displacement
 //   changed, and stops at a given depth (paper: "we stop the process when we
 //   reach a given level in the hierarchy"): nodes above it are not visited;
@@ -93,12 +95,18 @@ class SphereTree {
   }
   /// Mean outward normal of a leaf's points (unit, rest frame).
   const Vec3& leaf_normal(int leaf) const { return leaf_normal_[leaf]; }
+  /// Cosine of the widest angle between a leaf's point normals and its mean
+  /// normal: 1 on a flat face, lower where the leaf bends or straddles an edge.
+  double leaf_flatness(int leaf) const { return leaf_min_cos_[leaf]; }
   /// Height of the leaf's surface above its centre along leaf_normal (m, >= 0),
   /// including the refit growth: no surface point of the leaf lies higher.
   double leaf_height(int leaf) const {
     const TreeNode& n = nodes_[leaf_node_[leaf]];
     return leaf_height_[leaf] + (n.radius - n.rest_radius);
   }
+  /// The MLS surface fitted at a leaf's centre (rest frame), or null when that
+  /// fit failed: a first guess for projections onto the surface near the leaf.
+  const MlsPatch* leaf_patch(int leaf) const { return patch_ok_[leaf] ? &patches_[leaf] : nullptr; }
   double border() const { return border_; }
   double cover_margin() const { return cover_margin_; }
 
@@ -129,6 +137,9 @@ class SphereTree {
   std::vector<int> nbr_start_, nbr_items_;
   std::vector<Vec3> leaf_normal_;
   std::vector<double> leaf_height_;
+  std::vector<double> leaf_min_cos_;
+  std::vector<MlsPatch> patches_;
+  std::vector<uint8_t> patch_ok_;
   std::vector<double> growth_;      // radius growth of each node over its rest radius (m)
   std::vector<int> dirty_;          // scratch for Refit
   std::vector<uint8_t> dirty_mark_;
