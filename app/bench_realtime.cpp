@@ -9,8 +9,9 @@
 // snapshots, never waited for, nice 10, one llvmpipe thread) drawing 640x480 at
 // 30 frames per simulated second into a null sink. Then the same without
 // rendering. Reported per run: missed deadlines (steps that ended after their
-// deadline), the worst lateness, the step's median, p99 and max, frames drawn
-// and dropped. A late step is not skipped: the next starts at once (the replay
+// deadline), how many runs of consecutive late steps they make, the steps late
+// by their own work (loop time over 1 ms), the worst lateness, the step's
+// median, p99 and max, frames drawn and dropped, the machine's load average. A late step is not skipped: the next starts at once (the replay
 // catches up), so a missed deadline delays but never drops simulated time.
 #include <time.h>
 
@@ -47,6 +48,15 @@ void SleepUntilNs(int64_t ns) {
   }
 }
 
+double LoadAverage() {
+  double l = 0.0;
+  if (FILE* f = std::fopen("/proc/loadavg", "r")) {
+    if (std::fscanf(f, "%lf", &l) != 1) l = 0.0;
+    std::fclose(f);
+  }
+  return l;
+}
+
 double Percentile(std::vector<double> v, double p) {
   if (v.empty()) return 0.0;
   std::sort(v.begin(), v.end());
@@ -77,6 +87,9 @@ struct RunResult {
   bool render = false;
   int64_t steps = 0;
   int64_t missed = 0;           ///< steps that ended after their deadline
+  int64_t late_runs = 0;        ///< runs of consecutive late steps (one delay makes a run while the replay catches up)
+  int64_t overlong = 0;         ///< steps whose own loop time exceeded the period (late by their own work)
+  double load_start = 0, load_end = 0;  ///< the machine's 1-minute load average before and after
   double worst_late_ms = 0.0;   ///< largest (end - deadline)
   double step_median_ms = 0, step_p99_ms = 0, step_max_ms = 0;  ///< World::Step
   double loop_median_ms = 0, loop_p99_ms = 0;                   ///< datagrams + step + snapshot
@@ -111,6 +124,8 @@ bool RunOnce(const std::string& scene, const Session& session, double seconds, b
   const int64_t start = NowNs() + 2 * period;
   *out = RunResult();
   out->render = render;
+  out->load_start = LoadAverage();
+  bool was_late = false;
   for (int64_t k = 0; k < steps; ++k) {
     SleepUntilNs(start + k * period);
     const int64_t begin = NowNs();
@@ -127,6 +142,9 @@ bool RunOnce(const std::string& scene, const Session& session, double seconds, b
     recorder.AfterStep(w, tracker_text);
     const int64_t end = NowNs();
     const int64_t late = end - (start + (k + 1) * period);
+    if (end - begin > period) ++out->overlong;
+    if (late > 0 && !was_late) ++out->late_runs;
+    was_late = late > 0;
     if (late > 0) {
       ++out->missed;
       out->worst_late_ms = std::max(out->worst_late_ms, 1e-6 * static_cast<double>(late));
@@ -141,6 +159,7 @@ bool RunOnce(const std::string& scene, const Session& session, double seconds, b
     }
   }
   out->wall_s = 1e-9 * static_cast<double>(NowNs() - start);
+  out->load_end = LoadAverage();
   out->steps = steps;
   out->datagrams = next;
   out->frames_taken = recorder.frames_taken();
@@ -157,12 +176,14 @@ bool RunOnce(const std::string& scene, const Session& session, double seconds, b
 
 void PrintJson(const RunResult& r, double seconds) {
   std::printf("{\"bench\":\"realtime\",\"rendering\":%s,\"seconds\":%g,\"steps\":%lld,\"missed_deadlines\":%lld,"
+              "\"late_runs\":%lld,\"overlong_steps\":%lld,"
               "\"worst_lateness_ms\":%.4f,\"step_ms_median\":%.4f,\"step_ms_p99\":%.4f,\"step_ms_max\":%.4f,"
               "\"loop_ms_median\":%.4f,\"loop_ms_p99\":%.4f,\"wall_s\":%.3f,\"frames\":%d,\"frames_taken\":%d,"
-              "\"frames_dropped\":%d,\"max_contacts\":%d,\"lifts\":%d,\"datagrams\":%zu}\n",
+              "\"frames_dropped\":%d,\"max_contacts\":%d,\"lifts\":%d,\"datagrams\":%zu,"
+              "\"load_average_start\":%.2f,\"load_average_end\":%.2f}\n",
               r.render ? "true" : "false", seconds, static_cast<long long>(r.steps), static_cast<long long>(r.missed),
-              r.worst_late_ms, r.step_median_ms, r.step_p99_ms, r.step_max_ms, r.loop_median_ms, r.loop_p99_ms,
-              r.wall_s, r.frames_drawn, r.frames_taken, r.frames_dropped, r.max_contacts, r.lifts, r.datagrams);
+              static_cast<long long>(r.late_runs), static_cast<long long>(r.overlong), r.worst_late_ms, r.step_median_ms, r.step_p99_ms, r.step_max_ms, r.loop_median_ms, r.loop_p99_ms,
+              r.wall_s, r.frames_drawn, r.frames_taken, r.frames_dropped, r.max_contacts, r.lifts, r.datagrams, r.load_start, r.load_end);
 }
 
 }  // namespace
@@ -186,22 +207,27 @@ int RunBenchRealtime(const BenchOptions& opt) {
     PrintJson(without, seconds);
     PrintJson(with, seconds);
     std::printf("{\"bench\":\"realtime\",\"seconds\":%g,\"steps\":%lld,\"missed_deadlines\":%lld,"
+                "\"late_runs\":%lld,\"overlong_steps\":%lld,"
                 "\"worst_lateness_ms\":%.4f,\"step_ms_median\":%.4f,\"step_ms_p99\":%.4f,\"frames\":%d,"
                 "\"frames_dropped\":%d,\"no_render_missed_deadlines\":%lld,\"no_render_worst_lateness_ms\":%.4f,"
                 "\"no_render_step_ms_median\":%.4f,\"target_met\":%s}\n",
-                seconds, static_cast<long long>(with.steps), static_cast<long long>(with.missed), with.worst_late_ms,
+                seconds, static_cast<long long>(with.steps), static_cast<long long>(with.missed),
+                static_cast<long long>(with.late_runs), static_cast<long long>(with.overlong), with.worst_late_ms,
                 with.step_median_ms, with.step_p99_ms, with.frames_drawn, with.frames_dropped,
                 static_cast<long long>(without.missed), without.worst_late_ms, without.step_median_ms,
                 with.missed == 0 && with.step_median_ms <= 1.0 ? "true" : "false");
     return 0;
   }
-  std::printf("  %-18s %8s %8s %10s %9s %9s %9s %9s %8s %8s %8s\n", "", "steps", "missed", "worst late", "step med",
+  std::printf("  %-18s %8s %8s %6s %8s %10s %9s %9s %9s %9s %8s %8s %8s\n", "", "steps", "missed", "runs", "overlong", "worst late", "step med",
               "step p99", "step max", "loop p99", "frames", "dropped", "contacts");
   for (const RunResult* r : {&with, &without})
-    std::printf("  %-18s %8lld %8lld %7.3f ms %6.3f ms %6.3f ms %6.3f ms %6.3f ms %8d %8d %8d\n",
+    std::printf("  %-18s %8lld %8lld %6lld %8lld %7.3f ms %6.3f ms %6.3f ms %6.3f ms %6.3f ms %8d %8d %8d\n",
                 r->render ? "with rendering" : "without rendering", static_cast<long long>(r->steps),
-                static_cast<long long>(r->missed), r->worst_late_ms, r->step_median_ms, r->step_p99_ms, r->step_max_ms,
+                static_cast<long long>(r->missed), static_cast<long long>(r->late_runs),
+                static_cast<long long>(r->overlong), r->worst_late_ms, r->step_median_ms, r->step_p99_ms, r->step_max_ms,
                 r->loop_p99_ms, r->frames_drawn, r->frames_dropped, r->max_contacts);
+  std::printf("  load average %.2f -> %.2f (rendering run), %.2f -> %.2f (without)\n", with.load_start, with.load_end,
+              without.load_start, without.load_end);
   std::printf("  the box was lifted in %d of %d grasp cycles; target (no missed deadline, step median <= 1 ms): %s\n",
               with.lifts, static_cast<int>(std::ceil(seconds / tracking::SyntheticHand().duration_s)),
               with.missed == 0 && with.step_median_ms <= 1.0 ? "met" : "NOT met");
