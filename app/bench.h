@@ -14,6 +14,8 @@ struct BenchOptions {
   bool quick = false;  ///< fewer repetitions (used by the tests)
   std::string plot_dir;  ///< bench tradeoff: write CSV and PNG plots here when set
   std::string knob;      ///< bench tradeoff: sweep only this knob when set
+  double seconds = 0.0;  ///< bench realtime: session length (0: 60 s, --quick 2 s)
+  std::string scene;     ///< bench realtime: tracked scene (empty: config/tracked_hand.yaml)
 };
 
 int RunBenchCollision(const BenchOptions& opt);
@@ -26,6 +28,7 @@ int RunBenchRender(const BenchOptions& opt);
 int RunBenchScaling(const BenchOptions& opt);
 int RunBenchTradeoff(const BenchOptions& opt);
 int RunBenchSkip(const BenchOptions& opt);
+int RunBenchRealtime(const BenchOptions& opt);
 
 /// Accuracy of MLS projections of points near a sampled shape (errors in spacings).
 struct MlsAccuracy {

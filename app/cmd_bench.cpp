@@ -33,6 +33,12 @@ void AddBenchCommand(CLI::App& app, int* exit_code) {
   add("skip", "per feature (friction, deformation, nearby pairs, ...), the step time with it against the same scene "
       "without it, side by side",
       RunBenchSkip);
+  CLI::App* realtime = add("realtime",
+                           "issue 6's target: a 60 s tracked grasp session replayed at the recorded pace, 1 kHz "
+                           "deadlines with 640x480 rendering at 30 fps and without: missed deadlines, step median",
+                           RunBenchRealtime);
+  realtime->add_option("--seconds", opt->seconds, "session length (default 60; --quick: 2)")->check(CLI::Range(0.1, 3600.0));
+  realtime->add_option("--scene", opt->scene, "a scene with a tracker section (default config/tracked_hand.yaml)");
   CLI::App* tradeoff = add("tradeoff",
                             "run time against error for every knob (points, control points, bandwidth, GS tolerance "
                             "and cap, dt), Pareto fronts",

@@ -271,7 +271,7 @@ void FrameRecorder::Loop() {
   if (!ok) error_ = err;
 }
 
-bool FrameRecorder::Finish(std::string* error) {
+bool FrameRecorder::Finish(std::string* error, bool quiet) {
   if (!active_) return true;
   {
     std::lock_guard<std::mutex> lock(mu_);
@@ -284,6 +284,7 @@ bool FrameRecorder::Finish(std::string* error) {
     *error = error_;
     return false;
   }
+  if (quiet) return true;
   const int drawn = frames_drawn();
   std::printf("rendered %d frames at %dx%d, %d fps (%.1f ms drawing, %.1f ms writing per frame; at most %zu queued",
               drawn, width_, height_, opt_.fps, drawn ? draw_ms_total_ / drawn : 0.0,

@@ -31,7 +31,8 @@ struct RenderOptions {
   double force_scale = 0.0;    ///< arrow length per force (m/N); 0: the default
   std::string arrows = "pair";  ///< pair (resultant per touching body pair), contact, none
   bool no_hud = false;
-  bool enabled() const { return !frames.empty() || !video.empty(); }
+  bool discard = false;        ///< draw every frame, write nothing (bench realtime's null sink)
+  bool enabled() const { return !frames.empty() || !video.empty() || discard; }
 };
 
 /// Adds the options to a subcommand.
@@ -80,8 +81,8 @@ class FrameRecorder {
   /// After each step: snapshots every frame time reached, with `tracker` (may be
   /// null) as the HUD's tracker state. Never blocks on drawing.
   void AfterStep(const World& w, const char* tracker = nullptr);
-  /// Waits for the queued frames, closes the outputs, prints a summary line.
-  bool Finish(std::string* error);
+  /// Waits for the queued frames, closes the outputs, prints a summary line (unless quiet).
+  bool Finish(std::string* error, bool quiet = false);
   bool active() const { return active_; }
   int frames_taken() const { return taken_; }
   /// Frames drawn and written so far (any thread).

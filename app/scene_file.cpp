@@ -295,6 +295,17 @@ bool Parse(const YAML::Node& root, const std::string& file, Scene* s, std::vecto
     s->params.refit_stop_level = static_cast<int>(level);
     s->params.max_contacts = static_cast<int>(cap);
   }
+  if (YAML::Node n = m.Raw("sleep")) {
+    // bodies at rest skip collision detection (core SleepParams, docs/skip.md)
+    MapReader d(n, file, "sleep", errors);
+    SleepParams& sp = s->params.sleep;
+    d.Flag("enabled", &sp.enabled, false);
+    d.Number("linear_velocity_m_s", &sp.linear_velocity, 0, 1e3, false);
+    d.Number("angular_velocity_rad_s", &sp.angular_velocity, 0, 1e3, false);
+    d.Number("time_s", &sp.time, 0, 1e6, false);
+    d.Number("max_drift_m", &sp.max_drift, 0, 1, false);
+    d.Finish();
+  }
   if (YAML::Node n = m.Raw("friction")) {
     MapReader d(n, file, "friction", errors);
     d.Number("default", &s->params.default_friction, 0, 1e3, false);

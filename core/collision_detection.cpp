@@ -1,7 +1,8 @@
 // Collision detection stage: refit the deformed bodies' trees, then a broad
 // phase on root spheres and the paper's two-tree traversal with MLS projection
 // for every pair that may touch (collision.h). Pairs of bodies that cannot move
-// (fixed or kinematic against fixed or kinematic) are not tested.
+// (fixed or kinematic against fixed or kinematic) are not tested, nor pairs of
+// sleeping bodies (sleep.cpp).
 #include <chrono>
 
 #include "core/world.h"
@@ -37,8 +38,13 @@ void DetectCollisions(World& w) {
       if (!a_moves && !b_moves) continue;
       // two fingertips of the same finger never touch
       if (a.finger >= 0 && a.finger == b.finger) continue;
-      const CollisionShape sb = b.Shape();
       ++w.profile.work.body_pairs;
+      // at rest (sleep.cpp): the last step's contacts, moved with the poses
+      if (PairAsleep(w, i, j)) {
+        ReuseContacts(w, i, j);
+        continue;
+      }
+      const CollisionShape sb = b.Shape();
       ++w.profile.work.pair_tests;
       if (!RootsOverlap(sa, a.pose, sb, b.pose, w.params.collision.contact_threshold)) continue;
       ++w.profile.work.pairs_traversed;

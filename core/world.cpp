@@ -121,6 +121,11 @@ void World::Finalize() {
     b.u_changed.assign(leaves, 0);
     b.inf_slot.assign(leaves, -1);
     b.pose_prev = b.pose;
+    // a scene change wakes everything
+    b.asleep = false;
+    b.rest_time = 0.0;
+    b.contact_count = b.contact_count_prev = 0;
+    b.pose_detected = b.sleep_pose = b.pose;
   }
   for (size_t f = 0; f < hand.fingers.size(); ++f) {
     Finger& fg = hand.fingers[f];
@@ -157,6 +162,9 @@ void World::Finalize() {
   side_inf_idx_prev.reserve(static_cast<size_t>(64) * params.max_contacts);
   side_inf_phi_prev.reserve(static_cast<size_t>(64) * params.max_contacts);
   gs_scratch.Reserve(params.max_contacts);
+  contacts_prev.reserve(params.max_contacts);
+  sleep_set.assign(n, 0);
+  sleep_gravity = params.gravity;
 }
 
 void World::Step() {
@@ -165,11 +173,14 @@ void World::Step() {
   profile = StepProfile{};
   FreeMotion(*this);
   const auto t1 = Clock::now();
+  WakeSleepingBodies(*this);
   DetectCollisions(*this);
+  for (Body& b : bodies) b.pose_detected = b.pose;
   BuildContactSpace(*this);
   SolveContacts(*this);
   const auto t2 = Clock::now();
   ConstrainedMotion(*this);
+  UpdateSleep(*this);
   const auto t3 = Clock::now();
   profile.free_motion = std::chrono::duration<double>(t1 - t0).count();
   profile.constrained_motion = std::chrono::duration<double>(t3 - t2).count();

@@ -70,6 +70,13 @@ struct Body {
   bool emits_contacts = true; ///< false: one-pass contact, only other bodies' control points touch this one
   int finger = -1;            ///< for a fingertip, its finger
   int articulation = -1;      ///< index into World::articulations, -1 when it has no dofs
+  // sleep (SleepParams): a free body at rest skips collision detection
+  bool asleep = false;
+  double rest_time = 0.0;     ///< s spent slower than the sleep thresholds with the same contact count
+  int contact_count = 0, contact_count_prev = 0;  ///< contacts it is in, this step and the last
+  Pose sleep_pose;            ///< pose when it fell asleep (moving away from it wakes it)
+  Drive sleep_drive;          ///< drive when it fell asleep (a change wakes it)
+  Pose pose_detected;         ///< pose at the last collision detection (reused contacts move from there)
   CollisionShape Shape() const;
 };
 
@@ -131,6 +138,25 @@ struct ContactRow {
   double held_back = 0.0;  ///< part of an overlap present at the step's start left for later steps (m), see max_push_out_speed
 };
 
+/// Bodies at rest skip collision detection (docs/skip.md, "Bodies at rest"). A
+/// free body slower than both thresholds for `time` seconds, in as many contacts
+/// each step, falls asleep once no awake moving body's bounding sphere reaches
+/// it. A sleeping body is still integrated and solved like any other: only its
+/// pairs against other sleeping bodies or bodies that do not move skip collision
+/// detection, reusing the last step's contacts moved rigidly with the two poses.
+/// It wakes when it gets faster than a threshold or its contact count changes,
+/// when an awake moving body's bounding sphere reaches it, when any point of it
+/// has moved more than `max_drift` from where it fell asleep, when its drive
+/// (target, gains, force) or gravity changes, when a step is rejected, and on
+/// Finalize (a scene change) or World::WakeAll.
+struct SleepParams {
+  bool enabled = true;
+  double linear_velocity = 1e-3;   ///< m/s
+  double angular_velocity = 1e-2;  ///< rad/s
+  double time = 0.1;               ///< s at rest before falling asleep
+  double max_drift = 2e-5;         ///< m: farthest a point may move from where the body fell asleep
+};
+
 struct WorldParams {
   double dt = 1e-3;
   Vec3 gravity = Vec3(0, 0, -9.81);
@@ -149,6 +175,7 @@ struct WorldParams {
   /// exact, the copied values are the ones that would be recomputed. Off only to
   /// measure what it saves (bench skip).
   bool reuse_contact_space = true;
+  SleepParams sleep;
 };
 
 /// Work done by the last step, counted where it is done: what a scene does not
@@ -166,6 +193,9 @@ struct StepWork {
   int local_solves_normal = 0;///< normal-only local solves (every contact frictionless)
   int propagations = 0;       ///< control-point updates u += phi F in the solver (displacement propagation)
   int deformed_points = 0;    ///< control points integrated by constrained motion (eq. 7)
+  int bodies_asleep = 0;      ///< free bodies asleep during this step's collision detection
+  int pairs_asleep = 0;       ///< candidate pairs not tested (both asleep, or asleep against a body that does not move)
+  int contacts_reused = 0;    ///< contacts of those pairs carried over from the last step
 };
 
 /// Per-stage times of the last step (s), in the layout of the paper's Figures 6 and 7.
@@ -203,6 +233,9 @@ class World {
   void Finalize();
   /// One time step of params.dt.
   void Step();
+  /// Wakes every sleeping body (call after changing a body's state by hand:
+  /// its pose, velocity, shape; drive and gravity changes are noticed).
+  void WakeAll();
 
   // internals shared by the stages
   std::vector<double> friction_;
@@ -217,7 +250,24 @@ class World {
   std::vector<int> side_inf_idx_prev;
   std::vector<double> side_inf_phi_prev;
   std::vector<std::pair<uint64_t, int>> rows_prev_by_key;  ///< (key, index in rows_prev), sorted
+  // sleep: the last step's contacts (in pair order) and a cursor into them
+  std::vector<Contact> contacts_prev;
+  size_t reuse_cursor = 0;
+  std::vector<uint8_t> sleep_set;  ///< scratch of UpdateSleep, one per body
+  Vec3 sleep_gravity = Vec3::Zero();
 };
+
+/// Sleep, before collision detection: wakes the sleeping bodies that must wake
+/// (see SleepParams) and keeps the last contacts for the ones that stay asleep.
+void WakeSleepingBodies(World& w);
+/// True when collision detection of bodies i and j can reuse the last contacts:
+/// one is asleep and the other is asleep or does not move.
+bool PairAsleep(const World& w, int i, int j);
+/// Appends the last step's contacts of pair (i, j), moved with the two bodies'
+/// poses since then (gap along the normal turned with body[1]).
+void ReuseContacts(World& w, int i, int j);
+/// Sleep, at the end of a step: rest times, bodies that fall asleep or wake.
+void UpdateSleep(World& w);
 
 /// Everything needed to add a body to a world.
 struct BodySpec {

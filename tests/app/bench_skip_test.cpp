@@ -70,6 +70,19 @@ TEST(BenchSkip, QuickRunShowsEachSkip) {
   EXPECT_GT(Field(*proximity, "with_pairs_traversed"), 0);
   EXPECT_EQ(Field(*proximity, "without_pairs_traversed"), 0);
   EXPECT_EQ(Field(*proximity, "without_pair_tests"), Field(*proximity, "with_pair_tests"));
+  // a resting stack: asleep, every pair reuses its contacts, nothing is tested or traversed
+  const std::string* rest = Feature(lines, "rest");
+  ASSERT_NE(rest, nullptr);
+  EXPECT_EQ(Field(*rest, "with_bodies_asleep"), 0);
+  EXPECT_GT(Field(*rest, "with_pairs_traversed"), 0);
+  EXPECT_EQ(Field(*rest, "with_pairs_asleep"), 0);
+  EXPECT_EQ(Field(*rest, "without_bodies_asleep"), 3);
+  EXPECT_EQ(Field(*rest, "without_pair_tests"), 0);
+  EXPECT_EQ(Field(*rest, "without_pairs_traversed"), 0);
+  EXPECT_EQ(Field(*rest, "without_pairs_asleep"), Field(*rest, "with_pair_tests"));
+  EXPECT_GT(Field(*rest, "without_contacts_reused"), 0);
+  EXPECT_EQ(Field(*rest, "without_contacts_reused"), Field(*rest, "without_contacts"));
+  EXPECT_EQ(Field(*rest, "without_contacts"), Field(*rest, "with_contacts"));
   // the headline
   const std::string& last = lines.back();
   EXPECT_NE(last.find("\"worst_feature\""), std::string::npos) << last;
