@@ -177,6 +177,7 @@ struct StepProfile {
   double residual = 0.0;
   bool converged = true;
   bool rejected = false;  ///< the step produced a non-finite value and was undone
+  const char* reject_reason = "";  ///< the first stage that saw a non-finite value (static text)
   CollisionStats collision;
   StepWork work;
 };
@@ -231,6 +232,7 @@ struct BodySpec {
   EMotion motion = EMotion::Free;
   EDynamics dynamics = EDynamics::Inertial;
   double mass = 0.0;
+  Mat3 inertia = Mat3::Zero();  ///< body frame, about the origin (kg m^2); zero: SolidInertia(shape, mass)
   double linear_damping = 0.0, angular_damping = 0.0;
   DeformationParams deformation;
   Drive drive;
@@ -253,6 +255,8 @@ void DetectCollisions(World& w);
 void BuildContactSpace(World& w);
 void SolveContacts(World& w);
 void ConstrainedMotion(World& w);
+/// Marks the step as rejected (undone by ConstrainedMotion); the first reason is kept.
+void MarkRejected(World& w, const char* reason);
 
 /// The last step's contact problem with W assembled explicitly, column by column
 /// through the same matrix-free operator the solver uses (for export and checks:
