@@ -38,8 +38,8 @@ int RunBenchStep(const BenchOptions& opt) {
     built->script.Apply(w, w.time + w.params.dt);
     w.Step();
   }
-  std::vector<double> total, collision, space, solve, motion, free_motion, iters;
-  std::vector<double> contacts;
+  std::vector<double> total, collision, space, space_rigid, space_deform, solve, motion, free_motion, iters;
+  std::vector<double> contacts, sides, sides_reused, blocks_reused, weights_reused;
   double residual_max = 0.0;
   int unconverged = 0, rejected = 0;
   const int steps = static_cast<int>(std::llround(window / w.params.dt));
@@ -51,10 +51,16 @@ int RunBenchStep(const BenchOptions& opt) {
     free_motion.push_back(1e3 * p.free_motion);
     collision.push_back(1e3 * (p.refit + p.traverse + p.interpenetration));
     space.push_back(1e3 * (p.fill_w_rigid + p.fill_w_deform));
+    space_rigid.push_back(1e3 * p.fill_w_rigid);
+    space_deform.push_back(1e3 * p.fill_w_deform);
     solve.push_back(1e3 * p.solve);
     motion.push_back(1e3 * p.constrained_motion);
     iters.push_back(p.iterations);
     contacts.push_back(p.contacts);
+    sides.push_back(p.work.w_deform_sides);
+    sides_reused.push_back(p.work.w_deform_reused);
+    blocks_reused.push_back(p.work.w_blocks_reused);
+    weights_reused.push_back(p.work.weights_reused);
     residual_max = std::max(residual_max, p.residual);
     unconverged += p.converged ? 0 : 1;
     rejected += p.rejected ? 1 : 0;
@@ -67,11 +73,15 @@ int RunBenchStep(const BenchOptions& opt) {
     std::printf(
         "{\"bench\":\"step\",\"scene\":\"%s\",\"steps\":%d,\"contacts\":%d,\"free_motion_ms_median\":%.4f,"
         "\"collision_ms_median\":%.4f,\"contact_space_ms_median\":%.4f,\"solve_ms_median\":%.4f,"
+        "\"contact_space_rigid_ms_median\":%.4f,\"contact_space_deform_ms_median\":%.4f,"
+        "\"w_blocks_reused_median\":%d,\"w_deform_sides_median\":%d,\"w_deform_reused_median\":%d,\"weights_reused_median\":%d,"
         "\"constrained_motion_ms_median\":%.4f,\"gs_iterations_median\":%d,\"gs_iterations_max\":%d,"
         "\"residual_max\":%.3g,\"unconverged_steps\":%d,\"rejected_steps\":%d,\"target_ms\":1.0,"
         "\"step_ms_median\":%.4f}\n",
         built->name.c_str(), steps, static_cast<int>(MedianOf(contacts)), MedianOf(free_motion), MedianOf(collision),
-        MedianOf(space), MedianOf(solve), MedianOf(motion), static_cast<int>(MedianOf(iters)),
+        MedianOf(space), MedianOf(solve), MedianOf(space_rigid), MedianOf(space_deform),
+        static_cast<int>(MedianOf(blocks_reused)), static_cast<int>(MedianOf(sides)),
+        static_cast<int>(MedianOf(sides_reused)), static_cast<int>(MedianOf(weights_reused)), MedianOf(motion), static_cast<int>(MedianOf(iters)),
         static_cast<int>(*std::max_element(iters.begin(), iters.end())), residual_max, unconverged, rejected,
         step_ms);
   } else {
@@ -81,6 +91,11 @@ int RunBenchStep(const BenchOptions& opt) {
     std::printf("  free motion (ms, median)       %8.4f\n", MedianOf(free_motion));
     std::printf("  collision detection (ms)       %8.4f\n", MedianOf(collision));
     std::printf("  contact space (ms)             %8.4f\n", MedianOf(space));
+    std::printf("    rigid part: frames, J, W_rigid %8.4f   (%d of %d blocks reused, median)\n", MedianOf(space_rigid),
+                static_cast<int>(MedianOf(blocks_reused)), static_cast<int>(MedianOf(contacts)));
+    std::printf("    deformable part: W_deform      %8.4f   (%d of %d sides reused, %d interpolations kept, median)\n",
+                MedianOf(space_deform), static_cast<int>(MedianOf(sides_reused)), static_cast<int>(MedianOf(sides)),
+                static_cast<int>(MedianOf(weights_reused)));
     std::printf("  solve (ms)                     %8.4f\n", MedianOf(solve));
     std::printf("  constrained motion (ms)        %8.4f\n", MedianOf(motion));
     std::printf("  Gauss-Seidel sweeps  median %d, max %d\n", static_cast<int>(MedianOf(iters)),
