@@ -169,7 +169,6 @@ struct StepWork {
   int pair_tests = 0;         ///< bounding-sphere tests of the broad phase (one per candidate pair)
   int pairs_traversed = 0;    ///< body pairs whose trees were traversed (bounding spheres overlap)
   int w_blocks_built = 0;     ///< diagonal Delassus blocks W_cc computed
-  int w_blocks_reused = 0;    ///< of those, rigid parts (frame, Jacobian rows, W_rigid) copied from the last step
   int w_deform_sides = 0;     ///< contact sides whose W_deform term and merged influence were built
   int w_deform_reused = 0;    ///< of those, merged influences copied from the last step (same contact, same weights)
   int weights_reused = 0;     ///< eq. 8 interpolations kept from the last step (anchor within reuse_anchor_tolerance)
