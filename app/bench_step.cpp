@@ -38,8 +38,9 @@ int RunBenchStep(const BenchOptions& opt) {
     built->script.Apply(w, w.time + w.params.dt);
     w.Step();
   }
-  std::vector<double> total, collision, space, solve, motion, free_motion, iters;
+  std::vector<double> total, collision, space, space_rigid, space_deform, solve, motion, free_motion, iters;
   std::vector<double> contacts, projections, fits, node_pairs, leaf_pairs, traverse, interp;
+  std::vector<double> sides, sides_reused, weights_reused;
   double residual_max = 0.0;
   int unconverged = 0, rejected = 0;
   const int steps = static_cast<int>(std::llround(window / w.params.dt));
@@ -51,6 +52,8 @@ int RunBenchStep(const BenchOptions& opt) {
     free_motion.push_back(1e3 * p.free_motion);
     collision.push_back(1e3 * (p.refit + p.traverse + p.interpenetration));
     space.push_back(1e3 * (p.fill_w_rigid + p.fill_w_deform));
+    space_rigid.push_back(1e3 * p.fill_w_rigid);
+    space_deform.push_back(1e3 * p.fill_w_deform);
     solve.push_back(1e3 * p.solve);
     motion.push_back(1e3 * p.constrained_motion);
     iters.push_back(p.iterations);
@@ -61,6 +64,9 @@ int RunBenchStep(const BenchOptions& opt) {
     leaf_pairs.push_back(p.collision.leaf_pairs);
     traverse.push_back(1e3 * p.traverse);
     interp.push_back(1e3 * p.interpenetration);
+    sides.push_back(p.work.w_deform_sides);
+    sides_reused.push_back(p.work.w_deform_reused);
+    weights_reused.push_back(p.work.weights_reused);
     residual_max = std::max(residual_max, p.residual);
     unconverged += p.converged ? 0 : 1;
     rejected += p.rejected ? 1 : 0;
@@ -75,13 +81,17 @@ int RunBenchStep(const BenchOptions& opt) {
         "\"collision_ms_median\":%.4f,\"traverse_ms_median\":%.4f,\"interpenetration_ms_median\":%.4f,"
         "\"sphere_tests_median\":%d,\"leaf_pairs_median\":%d,\"projections_median\":%d,\"mls_fits_median\":%d,"
         "\"contact_space_ms_median\":%.4f,\"solve_ms_median\":%.4f,"
+        "\"contact_space_rigid_ms_median\":%.4f,\"contact_space_deform_ms_median\":%.4f,"
+        "\"w_deform_sides_median\":%d,\"w_deform_reused_median\":%d,\"weights_reused_median\":%d,"
         "\"constrained_motion_ms_median\":%.4f,\"gs_iterations_median\":%d,\"gs_iterations_max\":%d,"
         "\"residual_max\":%.3g,\"unconverged_steps\":%d,\"rejected_steps\":%d,\"target_ms\":1.0,"
         "\"step_ms_median\":%.4f}\n",
         built->name.c_str(), steps, static_cast<int>(MedianOf(contacts)), MedianOf(free_motion), MedianOf(collision),
         MedianOf(traverse), MedianOf(interp), static_cast<int>(MedianOf(node_pairs)),
         static_cast<int>(MedianOf(leaf_pairs)), static_cast<int>(MedianOf(projections)),
-        static_cast<int>(MedianOf(fits)), MedianOf(space), MedianOf(solve), MedianOf(motion), static_cast<int>(MedianOf(iters)),
+        static_cast<int>(MedianOf(fits)), MedianOf(space), MedianOf(solve), MedianOf(space_rigid),
+        MedianOf(space_deform), static_cast<int>(MedianOf(sides)), static_cast<int>(MedianOf(sides_reused)),
+        static_cast<int>(MedianOf(weights_reused)), MedianOf(motion), static_cast<int>(MedianOf(iters)),
         static_cast<int>(*std::max_element(iters.begin(), iters.end())), residual_max, unconverged, rejected,
         step_ms);
   } else {
@@ -95,6 +105,10 @@ int RunBenchStep(const BenchOptions& opt) {
                 static_cast<int>(MedianOf(node_pairs)), static_cast<int>(MedianOf(leaf_pairs)),
                 static_cast<int>(MedianOf(projections)), static_cast<int>(MedianOf(fits)));
     std::printf("  contact space (ms)             %8.4f\n", MedianOf(space));
+    std::printf("    rigid part: frames, J, W_rigid %8.4f   (every block rebuilt)\n", MedianOf(space_rigid));
+    std::printf("    deformable part: W_deform      %8.4f   (%d of %d sides reused, %d interpolations kept, median)\n",
+                MedianOf(space_deform), static_cast<int>(MedianOf(sides_reused)), static_cast<int>(MedianOf(sides)),
+                static_cast<int>(MedianOf(weights_reused)));
     std::printf("  solve (ms)                     %8.4f\n", MedianOf(solve));
     std::printf("  constrained motion (ms)        %8.4f\n", MedianOf(motion));
     std::printf("  Gauss-Seidel sweeps  median %d, max %d\n", static_cast<int>(MedianOf(iters)),

@@ -91,6 +91,10 @@ int Run(const RunOptions& opt) {
     built->script.Apply(w, w.time + w.params.dt);
     w.Step();
     records.push_back(RecordStep(w));
+    if (w.profile.rejected && w.rejected_steps <= 10)
+      std::fprintf(stderr, "graspsim run: step %lld (t = %.4f s) rejected, previous state kept: %s%s\n",
+                   static_cast<long long>(w.step_count), w.time, w.profile.reject_reason,
+                   w.rejected_steps == 10 ? " (further rejected steps are counted, not logged)" : "");
     frames.AfterStep(w);
     if (!opt.export_fclib.empty() && w.step_count % opt.export_every == 0 &&
         !ExportStep(opt.export_fclib, built->name, w, &exported, &error)) {

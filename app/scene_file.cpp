@@ -6,12 +6,17 @@
 #include <sstream>
 
 #include "app/mesh_import.h"
+#include "core/well_posed.h"
+
+#include <Eigen/Eigenvalues>
 
 namespace gs::app {
 namespace {
 
 constexpr double kInf = 1e300;
 constexpr double kBig = 1e6;  // generous bound on lengths (m) and forces
+// kernel_bandwidth_m in mean point spacings (RecommendedMlsParams: 1.5)
+constexpr double kMinBandwidthSpacings = 0.5, kMaxBandwidthSpacings = 10.0;
 
 Mat3 RotationDeg(const Vec3& deg) {
   const Vec3 r = deg * (M_PI / 180.0);
@@ -111,11 +116,53 @@ void ReadGeometry(MapReader& m, SceneBody* b) {
   m.Integer("points", &points, 4, 2000000, true);
   m.Integer("control_points", &cps, 1, 2000000, true);
   m.Integer("seed", &seed, 0, INT64_MAX, false);
-  m.Number("kernel_bandwidth_m", &b->spec.geometry.bandwidth, 0, kBig, false);
+  if (m.Number("kernel_bandwidth_m", &b->spec.geometry.bandwidth, 0, kBig, false))
+    b->bandwidth_at = ErrorAt(m.file(), m.Raw("kernel_bandwidth_m"), "");
   b->spec.geometry.points = static_cast<int>(points);
   b->spec.geometry.control_points = static_cast<int>(cps);
   b->spec.geometry.seed = static_cast<uint64_t>(seed);
   if (points > 0 && cps > points) m.Error(m.Raw("control_points"), "'control_points' cannot exceed 'points'");
+}
+
+// `inertia_kg_m2`: the principal moments [Ixx, Iyy, Izz] in the body frame, or the
+// full tensor [Ixx, Iyy, Izz, Ixy, Ixz, Iyz]; it must be a rigid body's inertia:
+// symmetric positive definite, each principal moment at most the sum of the others
+void ReadInertia(MapReader& m, const YAML::Node& n, BodySpec& s) {
+  const int count = n.IsSequence() ? static_cast<int>(n.size()) : 0;
+  if (count != 3 && count != 6) {
+    m.Error(n, "'inertia_kg_m2' must be a list of 3 principal moments [Ixx, Iyy, Izz] or 6 components "
+               "[Ixx, Iyy, Izz, Ixy, Ixz, Iyz] (kg m^2, body frame)");
+    return;
+  }
+  double v[6] = {0, 0, 0, 0, 0, 0};
+  if (!ReadList(m, n, "inertia_kg_m2", count, -kBig, kBig, v)) return;
+  Mat3 I;
+  I << v[0], v[3], v[4], v[3], v[1], v[5], v[4], v[5], v[2];
+  double lo, hi;
+  SymmetricRange(I, &lo, &hi);
+  Vec3 p;
+  {
+    const Eigen::SelfAdjointEigenSolver<Mat3> es(I, Eigen::EigenvaluesOnly);
+    p = es.eigenvalues();
+  }
+  std::ostringstream msg;
+  if (!(lo > 1e-13 * hi) || !(hi > 0)) {
+    msg << "'inertia_kg_m2' is not positive definite (principal moments " << p[0] << ", " << p[1] << ", " << p[2]
+        << " kg m^2): every principal moment must be > 0";
+    m.Error(n, msg.str());
+    return;
+  }
+  if (p[2] > (p[0] + p[1]) * (1.0 + 1e-9)) {
+    msg << "'inertia_kg_m2' is not a rigid body's inertia: the largest principal moment " << p[2]
+        << " exceeds the sum of the other two (" << p[0] << " + " << p[1] << ")";
+    m.Error(n, msg.str());
+    return;
+  }
+  if (s.motion != EMotion::Free || s.dynamics != EDynamics::Inertial) {
+    m.Error(n, "'inertia_kg_m2' is only for free inertial bodies (motion: free, dynamics: inertial)");
+    return;
+  }
+  s.inertia = I;
 }
 
 void ReadBody(const YAML::Node& node, const std::string& file, const std::string& dir, double dt, SceneBody* b,
@@ -160,12 +207,24 @@ void ReadBody(const YAML::Node& node, const std::string& file, const std::string
     d.Finish();
     s.drive.target = s.pose;
   }
+  if (YAML::Node in = m.Raw("inertia_kg_m2")) ReadInertia(m, in, s);
   // ill-posed combinations
   if (s.is_plane && s.motion != EMotion::Fixed) m.Error("a plane must have 'motion: fixed'");
   if (b->has_drive && s.motion != EMotion::Free) m.Error("'drive' is only for free bodies");
-  if (s.motion == EMotion::Free && s.dynamics == EDynamics::QuasiStatic &&
-      !(s.linear_damping > 0 && s.angular_damping > 0) && !b->has_drive)
-    m.Error("a quasi_static body needs positive damping (linear_N_s_m and angular_N_m_s_rad): B is its only mobility");
+  if (s.motion == EMotion::Free && s.dynamics == EDynamics::QuasiStatic) {
+    // A = B/dt + K + D/dt must be positive definite: on every axis damping or a drive gain
+    const Drive& d = s.drive;
+    for (int i = 0; i < 3; ++i) {
+      const bool lin = s.linear_damping > 0 || (d.enabled && (d.stiffness[i] > 0 || d.damping[i] > 0));
+      const bool ang = s.angular_damping > 0 || (d.enabled && (d.angular_stiffness[i] > 0 || d.angular_damping[i] > 0));
+      if (!lin || !ang) {
+        m.Error(m.Raw("dynamics"), std::string("a quasi_static body needs positive damping (damping: linear_N_s_m and "
+                            "angular_N_m_s_rad), or drive gains on every axis: B is its only mobility, and its ") +
+                (lin ? "rotation" : "translation") + " about axis " + "xyz"[i] + " has none");
+        break;
+      }
+    }
+  }
   (void)dt;
   m.Finish();
 }
@@ -242,7 +301,13 @@ void ReadKeyframe(const YAML::Node& node, const std::string& file, SceneKeyframe
       m.Error(n, std::string("'") + key + "' must map names to values");
       return;
     }
-    for (auto it = n.begin(); it != n.end(); ++it) read(it->first.as<std::string>(), it->second);
+    for (auto it = n.begin(); it != n.end(); ++it) {
+      if (!it->first.IsScalar()) {
+        m.Error(it->first, std::string("'") + key + "' must map names to values");
+        continue;
+      }
+      read(it->first.Scalar(), it->second);
+    }
   };
   per_name("joints_rad", [&](const std::string& name, const YAML::Node& v) {
     double q[4];
@@ -497,6 +562,34 @@ bool BuildScene(const Scene& scene, BuiltScene* out, std::string* error) {
   };
   w.Finalize();
   for (const Scene::Pair& p : scene.friction_pairs) w.SetFriction(body_index(p.a), body_index(p.b), p.mu);
+  // what the file alone cannot show: the MLS bandwidth against the sampled spacing,
+  // and the core's own check of every parameter the step divides by or inverts
+  std::vector<std::pair<const SceneBody*, const Body*>> with_body;
+  for (size_t i = 0; i < scene.bodies.size(); ++i) with_body.emplace_back(&scene.bodies[i], &w.bodies[i]);
+  for (size_t f = 0; f < scene.fingers.size(); ++f)
+    with_body.emplace_back(&scene.fingers[f].tip, &w.bodies[w.hand.fingers[f].body]);
+  for (const auto& [sbp, bp] : with_body) {
+    const SceneBody& sb = *sbp;
+    const Body& b = *bp;
+    if (sb.spec.is_plane || !(sb.spec.geometry.bandwidth > 0)) continue;
+    const double ratio = sb.spec.geometry.bandwidth / b.geometry.spacing;
+    if (ratio < kMinBandwidthSpacings || ratio > kMaxBandwidthSpacings) {
+      std::ostringstream s;
+      SceneError e = sb.bandwidth_at;
+      s << "body '" << b.name << "': 'kernel_bandwidth_m' = " << sb.spec.geometry.bandwidth << " m is " << ratio
+        << " times the mean point spacing (" << b.geometry.spacing << " m); expected " << kMinBandwidthSpacings
+        << " to " << kMaxBandwidthSpacings
+        << " times it (the default is 1.5): narrower, the MLS fits find too few points and contacts are lost; "
+           "wider, the surface is smoothed away and every leaf overlaps its neighbours";
+      e.message = s.str();
+      *error = e.Format();
+      return false;
+    }
+  }
+  if (const std::string why = WellPosedError(w); !why.empty()) {
+    *error = scene.file + ": the scene is ill-posed: " + why;
+    return false;
+  }
 
   // the script: fingertip targets become joint targets by inverse kinematics,
   // each solved from the previous keyframe's joints of that finger

@@ -19,6 +19,7 @@ struct SceneBody {
   std::string mesh_file;   ///< resolved path when the shape is a mesh
   double mesh_scale = 1.0;
   bool has_drive = false;
+  SceneError bandwidth_at;  ///< where kernel_bandwidth_m was given (checked against the spacing at build)
 };
 
 struct SceneFinger {

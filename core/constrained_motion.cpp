@@ -4,32 +4,46 @@
 // whose result is not finite is undone: the previous configuration is kept and
 // the step is reported as rejected.
 #include <algorithm>
+#include <cmath>
 
 #include "core/world.h"
 
 namespace gs {
 namespace {
 
-bool StepIsFinite(const World& w) {
+// the first non-finite value of the step, as a reject reason; null when all are finite
+const char* NonFiniteStage(const World& w) {
   for (const Articulation& a : w.articulations)
-    if (!a.dq.allFinite() || !a.dq_free.allFinite()) return false;
-  for (const ContactRow& r : w.rows)
-    if (!r.r.allFinite()) return false;
+    if (!a.dq_free.allFinite() || !a.a_inv.allFinite()) return "free motion: not finite";
   for (const Body& b : w.bodies) {
     if (!b.deform.enabled()) continue;
     for (int j = 0; j < b.deform.size(); ++j)
-      if (!b.u_acc[j].allFinite() || !b.u_free[j].allFinite()) return false;
+      if (!b.u_free[j].allFinite()) return "free motion: relaxed deformation not finite";
   }
-  return true;
+  for (const ContactRow& r : w.rows)
+    if (!r.q.allFinite() || !r.w_diag.allFinite() || !r.frame.allFinite() || !std::isfinite(r.mu))
+      return "contact space: a contact's gap, frame or Delassus block is not finite";
+  for (const ContactRow& r : w.rows)
+    if (!r.r.allFinite()) return "solve: a contact force is not finite";
+  for (const Articulation& a : w.articulations)
+    if (!a.dq.allFinite()) return "solve: a contact response is not finite";
+  for (const Body& b : w.bodies) {
+    if (!b.deform.enabled()) continue;
+    for (int j = 0; j < b.deform.size(); ++j)
+      if (!b.u_acc[j].allFinite()) return "solve: a contact displacement is not finite";
+  }
+  return nullptr;
 }
 
 }  // namespace
 
 void ConstrainedMotion(World& w) {
   const double dt = w.params.dt;
-  if (!StepIsFinite(w)) {
+  if (const char* why = NonFiniteStage(w)) MarkRejected(w, why);
+  if (w.profile.rejected) {
     // undo: back to the start of the step, deformation untouched
-    w.profile.rejected = true;
+    // (the hand and kinematic bodies keep their prescribed poses, which free motion
+    // has checked finite)
     for (Body& b : w.bodies) {
       if (b.motion == EMotion::Free || b.motion == EMotion::Fingertip) b.pose = b.pose_prev;
       b.velocity.setZero();
@@ -70,9 +84,12 @@ void ConstrainedMotion(World& w) {
         const int* idx;
         const double* phi;
         const int n = b.deform.Influence(j, &idx, &phi);
-        double spread = 0.0;
-        for (int k = 0; k < n; ++k) spread = std::max(spread, (b.u[idx[k]] - b.u[j]).norm());
-        b.u_spread[j] = spread;
+        // the largest squared distance, one square root (this loop runs over the
+        // influence of every control point that moved: most of this stage's time)
+        const Vec3 uj = b.u[j];
+        double spread2 = 0.0;
+        for (int k = 0; k < n; ++k) spread2 = std::max(spread2, (b.u[idx[k]] - uj).squaredNorm());
+        b.u_spread[j] = std::sqrt(spread2);
       }
     }
   }
@@ -81,7 +98,9 @@ void ConstrainedMotion(World& w) {
   for (Finger& f : w.hand.fingers) f.q_prev = f.q;
   w.hand.pose_prev = w.hand.pose;
 
-  // keep this step's forces (world frame) for the next warm start, sorted by key
+  // keep this step's forces (world frame) for the next warm start, sorted by key; a
+  // rejected step keeps the last accepted step's (its frames may be the non-finite part)
+  if (w.profile.rejected) return;
   w.warm_next.clear();
   for (const ContactRow& r : w.rows) w.warm_next.emplace_back(r.contact.key, r.frame.transpose() * r.r);
   std::sort(w.warm_next.begin(), w.warm_next.end(),

@@ -111,6 +111,13 @@ void BuildContactSpace(World& w) {
     Vec3 world_pt[2];
     Vec3 slip = Vec3::Zero();
     row.w_diag.setZero();
+    // the same contact in the last step, if any
+    row.prev = -1;
+    if (!w.rows_prev_by_key.empty()) {
+      const auto it = std::lower_bound(w.rows_prev_by_key.begin(), w.rows_prev_by_key.end(),
+                                       std::pair<uint64_t, int>(c.key, -1));
+      if (it != w.rows_prev_by_key.end() && it->first == c.key) row.prev = it->second;
+    }
     for (int s = 0; s < 2; ++s) {
       const Body& b = w.bodies[c.body[s]];
       ContactSide& side = row.side[s];
@@ -128,8 +135,23 @@ void BuildContactSpace(World& w) {
           side.count = 1;
           side.idx[0] = c.leaf;
           side.w[0] = 1.0;
+          side.weights_at = c.anchor[0];
         } else if (c.surface_leaf >= 0) {
-          side.count = b.deform.Interpolate(c.anchor[1], c.surface_leaf, side.idx, side.w, ContactSide::kMaxWeights);
+          const ContactSide* ps = row.prev >= 0 ? &w.rows_prev[row.prev].side[1] : nullptr;
+          const double tol = w.params.reuse_anchor_tolerance * b.deform.spacing();
+          if (ps && ps->body == side.body && ps->count > 0 && w.rows_prev[row.prev].contact.surface_leaf == c.surface_leaf &&
+              (c.anchor[1] - ps->weights_at).squaredNorm() <= tol * tol) {
+            // the anchor has barely moved: the last step's interpolation (bit for bit when
+            // the anchor is unchanged, and then its merged influence is reused below)
+            side.count = ps->count;
+            std::copy(ps->idx, ps->idx + ps->count, side.idx);
+            std::copy(ps->w, ps->w + ps->count, side.w);
+            side.weights_at = ps->weights_at;
+            ++w.profile.work.weights_reused;
+          } else {
+            side.count = b.deform.Interpolate(c.anchor[1], c.surface_leaf, side.idx, side.w, ContactSide::kMaxWeights);
+            side.weights_at = c.anchor[1];
+          }
         }
       }
       // The material point: on a deformable body, the rest anchor displaced by u. The
@@ -187,13 +209,7 @@ void BuildContactSpace(World& w) {
     const Contact& c = row.contact;
     double gap_def = 0.0;
     Vec3 slip_def = Vec3::Zero();
-    // the same contact in the last step, if any
-    const ContactRow* prev = nullptr;
-    if (!w.rows_prev_by_key.empty() && (row.side[0].count > 0 || row.side[1].count > 0)) {
-      const auto it = std::lower_bound(w.rows_prev_by_key.begin(), w.rows_prev_by_key.end(),
-                                       std::pair<uint64_t, int>(c.key, -1));
-      if (it != w.rows_prev_by_key.end() && it->first == c.key) prev = &w.rows_prev[it->second];
-    }
+    const ContactRow* prev = row.prev >= 0 ? &w.rows_prev[row.prev] : nullptr;
     for (int s = 0; s < 2; ++s) {
       Body& b = w.bodies[c.body[s]];
       ContactSide& side = row.side[s];

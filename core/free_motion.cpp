@@ -21,6 +21,11 @@ Vec3 RotationVector(const Mat3& R) {
 
 }  // namespace
 
+void MarkRejected(World& w, const char* reason) {
+  if (!w.profile.rejected) w.profile.reject_reason = reason;
+  w.profile.rejected = true;
+}
+
 /// The pose reached from `start` by the displacement (dx, dtheta).
 Pose AdvancePose(const Pose& start, const Vec6& dq) {
   Pose p;
@@ -88,17 +93,34 @@ void FreeMotion(World& w) {
     a.dq_free.tail<3>() = a.a_inv.bottomRightCorner<3, 3>() * g_ang;
   }
 
+  // A non-finite input (a NaN target from a tracker, a force, a hand pose) makes the
+  // free motion non-finite: the step is marked rejected here and the configuration
+  // collision detection sees stays the last one, so that no stage works on NaN poses;
+  // constrained motion then undoes the step (and sees the non-finite dq_free too).
+  const bool hand_finite = w.hand.pose.t.allFinite() && w.hand.pose.R.allFinite();
+  if (!hand_finite) {
+    MarkRejected(w, "free motion: the hand pose is not finite");
+    w.hand.pose = w.hand.pose_prev;
+  }
+  for (Body& b : w.bodies)
+    if (b.motion == EMotion::Kinematic && !(b.pose.t.allFinite() && b.pose.R.allFinite())) {
+      MarkRejected(w, "free motion: a kinematic body's pose is not finite");
+      b.pose = b.pose_prev;
+    }
+
   // tentative configuration after free motion: what collision detection sees
   for (Articulation& a : w.articulations) {
+    const bool finite = a.dq_free.allFinite() && a.a_inv.allFinite();
+    if (!finite) MarkRejected(w, "free motion: not finite (an input force, target or parameter)");
     if (a.finger >= 0) {
       Finger& f = w.hand.fingers[a.finger];
-      const Vec4 q_free = ClampJoints(f.model, f.q + a.dq_free.head<4>());
-      a.dq_free.head<4>() = q_free - f.q;
+      const Vec4 q_free = finite ? ClampJoints(f.model, f.q + a.dq_free.head<4>()) : f.q;
+      if (finite) a.dq_free.head<4>() = q_free - f.q;
       f.kin = FingerForward(f.model, w.hand.pose, q_free);
       if (f.body >= 0) w.bodies[f.body].pose = f.kin.tip;
     } else {
       Body& b = w.bodies[a.body];
-      b.pose = AdvancePose(b.pose_prev, a.dq_free);
+      b.pose = finite ? AdvancePose(b.pose_prev, a.dq_free) : b.pose_prev;
     }
   }
 

@@ -65,7 +65,8 @@ int AddBody(World& w, const BodySpec& spec, EGeometryError* error) {
   b.motion = spec.is_plane ? EMotion::Fixed : spec.motion;
   b.dynamics = spec.dynamics;
   b.mass = spec.mass;
-  b.inertia = spec.is_plane ? Mat3::Zero() : SolidInertia(b.geometry.shape, spec.mass);
+  b.inertia = spec.is_plane ? Mat3::Zero()
+                            : (spec.inertia.isZero(0.0) ? SolidInertia(b.geometry.shape, spec.mass) : spec.inertia);
   b.linear_damping = spec.linear_damping;
   b.angular_damping = spec.angular_damping;
   b.pose = b.pose_prev = spec.pose;

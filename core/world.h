@@ -122,6 +122,7 @@ struct ContactSide {
   /// entries [inf_begin, inf_begin + inf_count) of World::side_inf_idx / side_inf_phi
   int inf_begin = 0, inf_count = 0;
   double w_deform = 0.0;  ///< this side's share of W_deform,cc (m/N, isotropic)
+  Vec3 weights_at = Vec3::Zero();  ///< rest-frame point at which the eq. 8 weights were evaluated
 };
 
 /// One row block of the contact space (normal first, then the two tangents).
@@ -136,6 +137,7 @@ struct ContactRow {
   double mu = 0.0;
   double gap_start = 0.0;  ///< normal gap at the start of the step, deformation included (m)
   double held_back = 0.0;  ///< part of an overlap present at the step's start left for later steps (m), see max_push_out_speed
+  int prev = -1;           ///< the same contact (key) in the last step's rows, when reuse is on
 };
 
 /// Bodies at rest skip collision detection (docs/skip.md, "Bodies at rest"). A
@@ -176,6 +178,13 @@ struct WorldParams {
   /// measure what it saves (bench skip).
   bool reuse_contact_space = true;
   SleepParams sleep;
+  /// With reuse on, a contact side on a deformable body keeps the last step's eq. 8
+  /// weights (and so its merged influence and W_deform term) while its surface anchor
+  /// stays within this fraction of the body's control-point spacing of the point the
+  /// weights were evaluated at (measured from that point, so drift cannot accumulate).
+  /// Resting contacts drift by ~1e-9 m per step (paper grasp), far below the MLS
+  /// projection's own tolerance (1e-3 bandwidth, ~3e-6 m). 0: bitwise-equal anchors only.
+  double reuse_anchor_tolerance = 1e-4;
 };
 
 /// Work done by the last step, counted where it is done: what a scene does not
@@ -189,6 +198,7 @@ struct StepWork {
   int w_blocks_built = 0;     ///< diagonal Delassus blocks W_cc computed
   int w_deform_sides = 0;     ///< contact sides whose W_deform term and merged influence were built
   int w_deform_reused = 0;    ///< of those, merged influences copied from the last step (same contact, same weights)
+  int weights_reused = 0;     ///< eq. 8 interpolations kept from the last step (anchor within reuse_anchor_tolerance)
   int local_solves_3d = 0;    ///< local Coulomb solves (normal and tangents)
   int local_solves_normal = 0;///< normal-only local solves (every contact frictionless)
   int propagations = 0;       ///< control-point updates u += phi F in the solver (displacement propagation)
@@ -207,6 +217,7 @@ struct StepProfile {
   double residual = 0.0;
   bool converged = true;
   bool rejected = false;  ///< the step produced a non-finite value and was undone
+  const char* reject_reason = "";  ///< the first stage that saw a non-finite value (static text)
   CollisionStats collision;
   StepWork work;
 };
@@ -281,6 +292,7 @@ struct BodySpec {
   EMotion motion = EMotion::Free;
   EDynamics dynamics = EDynamics::Inertial;
   double mass = 0.0;
+  Mat3 inertia = Mat3::Zero();  ///< body frame, about the origin (kg m^2); zero: SolidInertia(shape, mass)
   double linear_damping = 0.0, angular_damping = 0.0;
   DeformationParams deformation;
   Drive drive;
@@ -303,6 +315,8 @@ void DetectCollisions(World& w);
 void BuildContactSpace(World& w);
 void SolveContacts(World& w);
 void ConstrainedMotion(World& w);
+/// Marks the step as rejected (undone by ConstrainedMotion); the first reason is kept.
+void MarkRejected(World& w, const char* reason);
 
 /// The last step's contact problem with W assembled explicitly, column by column
 /// through the same matrix-free operator the solver uses (for export and checks:

@@ -96,6 +96,91 @@ TEST(SceneFile, WrongTypesRangesAndIllPosedValues) {
   ExpectError(cps, 11, 21, "cannot exceed");
 }
 
+// kMinimal with `extra` appended to the ball's mapping
+std::string WithBall(const std::string& extra) { return std::string(kMinimal) + extra; }
+
+TEST(SceneFile, IllPosedMechanicsAreRefusedWithTheirPosition) {
+  // zero, negative, NaN and infinite masses of a free body
+  const std::string base = kMinimal;
+  const size_t mass = base.find("0.05\n");
+  ExpectError(std::string(base).replace(mass, 4, "0"), 13, 14, "out of range: expected a number in (0,");
+  ExpectError(std::string(base).replace(mass, 4, "-1"), 13, 14, "out of range");
+  ExpectError(std::string(base).replace(mass, 4, ".inf"), 13, 14, "finite number");
+  ExpectError(std::string(base).replace(mass, 4, "-.inf"), 13, 14, "finite number");
+  ExpectError(std::string(base).replace(mass, 4, ".NaN"), 13, 14, "finite number");
+  // NaN and Inf in lists and nested maps
+  ExpectError(std::string(base).replace(base.find("[0, 0, 0.0102]"), 14, "[0, .nan, 0.0102]"), 12, 21, "finite");
+  ExpectError(WithBall("    damping: {linear_N_s_m: .inf}\n"), 14, 29, "finite");
+  ExpectError(WithBall("    deformation: {model: gaussian, stiffness_N_m: .inf, influence_radius_m: 0.002}\n"), 14, 51,
+              "finite");
+  ExpectError(WithBall("    deformation: {model: gaussian, stiffness_N_m: 0, influence_radius_m: 0.002}\n"), 14, 51,
+              "out of range");
+  ExpectError(WithBall("    deformation: {model: gaussian, stiffness_N_m: 100, damping_N_s_m: -1, influence_radius_m: 0.002}\n"),
+              14, 71, "out of range");
+  ExpectError(WithBall("    deformation: {model: boussinesq, young_modulus_Pa: 1e5, poisson_ratio: 0.5}\n"), 14, 76,
+              "out of range");
+  ExpectError(std::string(kMinimal) + "gravity_m_s2: [0, 0, .inf]\n", 14, 22, "finite");
+  ExpectError(std::string(kMinimal) + "solver: {tolerance: 0}\n", 14, 21, "out of range");
+  ExpectError(std::string(kMinimal) + "solver: {over_relaxation: 2}\n", 14, 27, "out of range");
+  ExpectError(std::string(kMinimal) + "friction: {pairs: [{a: ball, b: table, mu: -0.2}]}\n", 14, 44, "out of range");
+  ExpectError(std::string(kMinimal) + "friction: {pairs: [{a: ball, b: table, mu: .nan}]}\n", 14, 44, "finite");
+  // inertia: shape, positive definiteness, a rigid body's triangle inequality, only for free inertial bodies
+  ExpectError(WithBall("    inertia_kg_m2: [1e-6, 1e-6]\n"), 14, 20, "list of 3");
+  ExpectError(WithBall("    inertia_kg_m2: [1e-6, 1e-6, 0]\n"), 14, 20, "not positive definite");
+  ExpectError(WithBall("    inertia_kg_m2: [1e-6, 1e-6, -1e-6]\n"), 14, 20, "not positive definite");
+  ExpectError(WithBall("    inertia_kg_m2: [1e-6, 1e-6, 1e-6, 2e-6, 0, 0]\n"), 14, 20, "not positive definite");
+  ExpectError(WithBall("    inertia_kg_m2: [1e-6, 1e-6, 3e-6]\n"), 14, 20, "exceeds the sum");
+  ExpectError(WithBall("    inertia_kg_m2: [1e-6, 1e-6, .nan]\n"), 14, 33, "finite");
+  ExpectError(WithBall("    dynamics: quasi_static\n    damping: {linear_N_s_m: 1, angular_N_m_s_rad: 1}\n"
+                       "    inertia_kg_m2: [1e-6, 1e-6, 1e-6]\n"),
+              16, 20, "only for free inertial");
+  // quasi-static: damping or drive gains on every axis
+  ExpectError(WithBall("    dynamics: quasi_static\n"), 14, 15, "needs positive damping");
+  ExpectError(WithBall("    dynamics: quasi_static\n    damping: {linear_N_s_m: 1}\n"), 14, 15, "rotation about axis x");
+  ExpectError(WithBall("    dynamics: quasi_static\n    damping: {angular_N_m_s_rad: 1}\n"
+                       "    drive: {stiffness_N_m: [10, 10, 0]}\n"),
+              14, 15, "translation about axis z");
+  // a script map keyed by a list
+  ExpectError(std::string(kMinimal) + "script:\n  - {time_s: 0.5, body_targets: {[a]: {position_m: [0, 0, 0]}}}\n", 15,
+              34, "must map names");
+}
+
+TEST(SceneFile, WellPosedQuasiStaticAndInertiaLoad) {
+  Scene s;
+  std::vector<SceneError> errors;
+  ASSERT_TRUE(LoadSceneFromString(WithBall("    inertia_kg_m2: [2e-6, 3e-6, 4e-6, 1e-7, 0, 0]\n"), "t.yaml", &s, &errors))
+      << errors[0].Format();
+  EXPECT_DOUBLE_EQ(s.bodies[1].spec.inertia(0, 1), 1e-7);
+  BuiltScene built;
+  std::string error;
+  ASSERT_TRUE(BuildScene(s, &built, &error)) << error;
+  EXPECT_DOUBLE_EQ(built.world.bodies[1].inertia(2, 2), 4e-6);
+  Scene q;
+  ASSERT_TRUE(LoadSceneFromString(WithBall("    dynamics: quasi_static\n    damping: {angular_N_m_s_rad: 1}\n"
+                                           "    drive: {stiffness_N_m: [10, 10, 10]}\n"),
+                                  "t.yaml", &q, &errors))
+      << errors[0].Format();
+}
+
+TEST(SceneFile, BandwidthOutsideItsRangeOfSpacingsIsRefusedAtBuild) {
+  for (const char* h : {"0.00001", "0.05"}) {
+    Scene s;
+    std::vector<SceneError> errors;
+    ASSERT_TRUE(LoadSceneFromString(WithBall(std::string("    kernel_bandwidth_m: ") + h + "\n"), "t.yaml", &s, &errors));
+    BuiltScene built;
+    std::string error;
+    EXPECT_FALSE(BuildScene(s, &built, &error)) << h;
+    EXPECT_EQ(error.rfind("t.yaml:14:25: body 'ball': 'kernel_bandwidth_m'", 0), 0u) << error;
+    EXPECT_NE(error.find("mean point spacing"), std::string::npos) << error;
+  }
+  Scene ok;
+  std::vector<SceneError> errors;
+  ASSERT_TRUE(LoadSceneFromString(WithBall("    kernel_bandwidth_m: 0.002\n"), "t.yaml", &ok, &errors));
+  BuiltScene built;
+  std::string error;
+  EXPECT_TRUE(BuildScene(ok, &built, &error)) << error;
+}
+
 TEST(SceneFile, StructureErrors) {
   ExpectError("scene: t\ntimestep_s: 0.001\nduration_s: 1\nbodies: [\n", 5, 1, "syntax");
   ExpectError(std::string(kMinimal) + "timestep_s: 0.002\n", 14, 1, "duplicate key 'timestep_s'");
