@@ -12,6 +12,9 @@ using Clock = std::chrono::steady_clock;
 
 // bound on how much one projection fit shrinks the distance to the surface's foot
 constexpr double kContraction = 0.05;
+// a leaf patch within this fraction of the bandwidth of the MLS surface over its
+// leaf stands for the surface there (0.3% of h is 0.5% of the point spacing)
+constexpr double kPatchExact = 3e-3;
 // a contact deeper than this fraction of the bandwidth must have its foot's
 // normal within acos(kFacingCos) of facing the query leaf's normal
 constexpr double kDeepFraction = 0.1;
@@ -135,6 +138,28 @@ bool ProjectNear(const SphereTree& ts, const Vec3* pos, const Vec3* nrm, const V
   const double support = mls.support * mls.bandwidth;
   const MlsPatch* patch = ts.leaf_patch(*leaf);
   Vec3 q = patch ? patch->Closest(x) : x;
+  // Where the leaf's patch was checked at build to stay within kPatchExact * h of
+  // the MLS surface over the whole leaf (flat faces, gently curved ones), the
+  // foot of x on the patch is its foot on the surface to that accuracy: no fit.
+  // A foot that lands in a neighbouring leaf tries that leaf's patch, once.
+  if (patch && patch->h == mls.bandwidth) {
+    int at = *leaf;
+    for (int hop = 0; hop < 2; ++hop) {
+      const MlsPatch* p = ts.leaf_patch(at);
+      if (!p || !(ts.leaf_patch_error(at) <= kPatchExact * mls.bandwidth)) break;
+      const Vec3 f = hop == 0 ? q : p->Closest(x);
+      const TreeNode& node = ts.node(ts.leaf_node(at));
+      if ((f - node.center).squaredNorm() <= node.rest_radius * node.rest_radius) {
+        *leaf = at;
+        out->point = f;
+        out->normal = p->NormalBelow(f);
+        out->converged = true;
+        return f.allFinite() && out->normal.allFinite();
+      }
+      at = NearestLeaf(ts, f);
+      if (at == *leaf) break;
+    }
+  }
   Vec3 normal = Vec3::UnitZ();
   out->iterations = 0;
   out->converged = false;

@@ -107,6 +107,9 @@ class SphereTree {
   /// The MLS surface fitted at a leaf's centre (rest frame), or null when that
   /// fit failed: a first guess for projections onto the surface near the leaf.
   const MlsPatch* leaf_patch(int leaf) const { return patch_ok_[leaf] ? &patches_[leaf] : nullptr; }
+  /// Largest distance between a trusted leaf patch and the MLS surface over the
+  /// leaf (measured at build at the leaf's points; infinite when not trusted).
+  double leaf_patch_error(int leaf) const { return patch_error_[leaf]; }
   double border() const { return border_; }
   double cover_margin() const { return cover_margin_; }
 
@@ -140,6 +143,7 @@ class SphereTree {
   std::vector<double> leaf_min_cos_;
   std::vector<MlsPatch> patches_;
   std::vector<uint8_t> patch_ok_;
+  std::vector<double> patch_error_;
   std::vector<double> growth_;      // radius growth of each node over its rest radius (m)
   std::vector<int> dirty_;          // scratch for Refit
   std::vector<uint8_t> dirty_mark_;
