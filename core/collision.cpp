@@ -12,6 +12,8 @@ using Clock = std::chrono::steady_clock;
 
 // bound on how much one projection fit shrinks the distance to the surface's foot
 constexpr double kContraction = 0.05;
+// subtrees of at most this many nodes (8 leaves) are scanned, not descended, against a leaf
+constexpr int kScanNodes = 15;
 // a leaf patch within this fraction of the bandwidth of the MLS surface over its
 // leaf stands for the surface there (0.3% of h is 0.5% of the point spacing)
 constexpr double kPatchExact = 3e-3;
@@ -46,8 +48,8 @@ void MoveNodes(const SphereTree& t, const Pose& to, std::vector<TraversalNode>* 
 
 // collects the overlapping leaf pairs of two trees whose nodes are in one frame;
 // a pair is tested when it is pushed, so only overlapping pairs go on the stack
-void TraverseTrees(const TraversalNode* na, int root_a, const TraversalNode* nb, int root_b, double threshold,
-                   CollisionScratch* s, CollisionStats* stats) {
+void TraverseTrees(const TraversalNode* na, const int* end_a, int root_a, const TraversalNode* nb, const int* end_b,
+                   int root_b, double threshold, CollisionScratch* s, CollisionStats* stats) {
   s->stack.clear();
   s->pairs.clear();
   int tests = 0;
@@ -70,13 +72,24 @@ void TraverseTrees(const TraversalNode* na, int root_a, const TraversalNode* nb,
     s->stack.pop_back();
     const TraversalNode& a = na[ia];
     const TraversalNode& b = nb[ib];
-    // descend the larger node
+    // descend the larger node; a small subtree against a leaf is scanned: its
+    // leaves, a contiguous node range, are tested one after the other
     if (b.IsLeaf() || (!a.IsLeaf() && a.radius >= b.radius)) {
-      visit(a.child[1], ib);
-      visit(a.child[0], ib);
+      if (b.IsLeaf() && end_a[ia] - ia <= kScanNodes) {
+        for (int k = ia + 1; k < end_a[ia]; ++k)
+          if (na[k].IsLeaf()) visit(k, ib);
+      } else {
+        visit(a.child[1], ib);
+        visit(a.child[0], ib);
+      }
     } else {
-      visit(ia, b.child[1]);
-      visit(ia, b.child[0]);
+      if (a.IsLeaf() && end_b[ib] - ib <= kScanNodes) {
+        for (int k = ib + 1; k < end_b[ib]; ++k)
+          if (nb[k].IsLeaf()) visit(ia, k);
+      } else {
+        visit(ia, b.child[1]);
+        visit(ia, b.child[0]);
+      }
     }
   }
   stats->node_pairs += tests;
@@ -438,12 +451,12 @@ void CollidePair(int id_a, const CollisionShape& a, const Pose& pose_a, int id_b
   // the smaller tree is moved into the larger one's frame, once
   if (a.tree->nodes().size() <= b.tree->nodes().size()) {
     MoveNodes(*a.tree, a_in_b, &s->moved);
-    TraverseTrees(s->moved.data(), a.tree->root(), b.tree->traversal(), b.tree->root(), params.contact_threshold, s,
-                  &local);
+    TraverseTrees(s->moved.data(), a.tree->span_end(), a.tree->root(), b.tree->traversal(), b.tree->span_end(),
+                  b.tree->root(), params.contact_threshold, s, &local);
   } else {
     MoveNodes(*b.tree, b_in_a, &s->moved);
-    TraverseTrees(a.tree->traversal(), a.tree->root(), s->moved.data(), b.tree->root(), params.contact_threshold, s,
-                  &local);
+    TraverseTrees(a.tree->traversal(), a.tree->span_end(), a.tree->root(), s->moved.data(), b.tree->span_end(),
+                  b.tree->root(), params.contact_threshold, s, &local);
   }
 
   // closest overlapping leaf on the other body, for every leaf of each body, and

@@ -195,6 +195,12 @@ SphereTree::EBuildError SphereTree::Build(const PointCloud& cloud, const MlsPara
     hot_[i].child[0] = n.child[0];
     hot_[i].child[1] = n.IsLeaf() ? n.leaf : n.child[1];
   }
+  // depth-first layout: a subtree is the node range [i, span_end_[i])
+  span_end_.assign(nodes_.size(), 0);
+  for (size_t k = nodes_.size(); k-- > 0;) {
+    const TreeNode& n = nodes_[k];
+    span_end_[k] = n.IsLeaf() ? static_cast<int>(k) + 1 : span_end_[n.child[1]];
+  }
   growth_.assign(nodes_.size(), 0.0);
   dirty_.clear();
   dirty_.reserve(nodes_.size());

@@ -76,6 +76,9 @@ class SphereTree {
   const TreeNode& node(int i) const { return nodes_[i]; }
   /// Compact copies of the nodes (same indices) for traversal.
   const TraversalNode* traversal() const { return hot_.data(); }
+  /// Nodes are in depth-first order, left child first: node i's subtree is the
+  /// index range [i, span_end()[i]).
+  const int* span_end() const { return span_end_.data(); }
   int root() const { return 0; }
   int num_leaves() const { return static_cast<int>(leaf_node_.size()); }
   int leaf_node(int leaf) const { return leaf_node_[leaf]; }
@@ -132,6 +135,7 @@ class SphereTree {
   void SyncRadius(int i) { hot_[i].radius = nodes_[i].radius; }
   std::vector<TreeNode> nodes_;
   std::vector<TraversalNode> hot_;
+  std::vector<int> span_end_;
   std::vector<int> leaf_node_;
   std::vector<Vec3> control_points_;
   std::vector<int> point_order_;

@@ -54,6 +54,17 @@ void CheckStructure(const BodyGeometry& g, int leaves) {
     }
   }
   for (size_t i = 0; i < seen.size(); ++i) ASSERT_EQ(seen[i], 1) << "point " << i;
+  // depth-first layout: the left child follows its parent, a subtree is a node range
+  for (int i = 0; i < static_cast<int>(t.nodes().size()); ++i) {
+    const TreeNode& n = t.node(i);
+    if (n.IsLeaf()) {
+      EXPECT_EQ(t.span_end()[i], i + 1);
+    } else {
+      EXPECT_EQ(n.child[0], i + 1);
+      EXPECT_EQ(n.child[1], t.span_end()[n.child[0]]);
+      EXPECT_EQ(t.span_end()[i], t.span_end()[n.child[1]]);
+    }
+  }
   for (int l = 0; l < leaves; ++l) EXPECT_EQ(t.node(t.leaf_node(l)).leaf, l);
 }
 
