@@ -58,11 +58,12 @@ void TraverseTrees(const TraversalNode* na, const int* end_a, int root_a, const 
     const TraversalNode& a = na[ia];
     const TraversalNode& b = nb[ib];
     const double reach = a.radius + b.radius + threshold;
-    const double d2 = (a.center - b.center).squaredNorm();
+    const Vec3 d = a.center - b.center;
+    const double d2 = d.squaredNorm();
     ++tests;
     if (d2 > reach * reach) return;
     if (a.IsLeaf() && b.IsLeaf())
-      s->pairs.push_back({a.leaf(), b.leaf(), d2});
+      s->pairs.push_back({a.leaf(), b.leaf(), d2, d});
     else
       s->stack.emplace_back(ia, ib);
   };
@@ -449,7 +450,8 @@ void CollidePair(int id_a, const CollisionShape& a, const Pose& pose_a, int id_b
   const Pose b_in_a = pose_a.Inverse() * pose_b;
   const Pose a_in_b = b_in_a.Inverse();
   // the smaller tree is moved into the larger one's frame, once
-  if (a.tree->nodes().size() <= b.tree->nodes().size()) {
+  const bool in_b = a.tree->nodes().size() <= b.tree->nodes().size();
+  if (in_b) {
     MoveNodes(*a.tree, a_in_b, &s->moved);
     TraverseTrees(s->moved.data(), a.tree->span_end(), a.tree->root(), b.tree->traversal(), b.tree->span_end(),
                   b.tree->root(), params.contact_threshold, s, &local);
@@ -463,10 +465,15 @@ void CollidePair(int id_a, const CollisionShape& a, const Pose& pose_a, int id_b
   // how high each leaf centre stands above the other body's overlapping leaf slabs
   const SphereTree& ta = *a.tree;
   const SphereTree& tb = *b.tree;
+  // from the centres' offset d (a's minus b's, in the traversal's frame): a's
+  // height above b's slab is d . n_b, b's above a's is -d . n_a, each normal
+  // turned into that frame (R maps a's frame to b's)
+  const Mat3& R = a_in_b.R;
   for (const CollisionScratch::LeafPair& p : s->pairs) {
-    const Vec3 ca = ta.control_point(p.leaf_a), cb = tb.control_point(p.leaf_b);
-    const double ha = (a_in_b.Apply(ca) - cb).dot(tb.leaf_normal(p.leaf_b)) - tb.leaf_height(p.leaf_b);
-    const double hb = (b_in_a.Apply(cb) - ca).dot(ta.leaf_normal(p.leaf_a)) - ta.leaf_height(p.leaf_a);
+    const Vec3& nb = tb.leaf_normal(p.leaf_b);
+    const Vec3& na = ta.leaf_normal(p.leaf_a);
+    const double ha = (in_b ? p.d.dot(nb) : p.d.dot(R.transpose() * nb)) - tb.leaf_height(p.leaf_b);
+    const double hb = -(in_b ? p.d.dot(R * na) : p.d.dot(na)) - ta.leaf_height(p.leaf_a);
     if (s->best_a[p.leaf_a] < 0) {
       s->touched_a.push_back(p.leaf_a);
       s->lift_a[p.leaf_a] = ha;
