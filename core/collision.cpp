@@ -12,6 +12,11 @@ using Clock = std::chrono::steady_clock;
 
 // bound on how much one projection fit shrinks the distance to the surface's foot
 constexpr double kContraction = 0.05;
+// subtrees of at most this many nodes (8 leaves) are scanned, not descended, against a leaf
+constexpr int kScanNodes = 15;
+// a leaf patch within this fraction of the bandwidth of the MLS surface over its
+// leaf stands for the surface there (0.3% of h is 0.5% of the point spacing)
+constexpr double kPatchExact = 3e-3;
 // a contact deeper than this fraction of the bandwidth must have its foot's
 // normal within acos(kFacingCos) of facing the query leaf's normal
 constexpr double kDeepFraction = 0.1;
@@ -43,8 +48,8 @@ void MoveNodes(const SphereTree& t, const Pose& to, std::vector<TraversalNode>* 
 
 // collects the overlapping leaf pairs of two trees whose nodes are in one frame;
 // a pair is tested when it is pushed, so only overlapping pairs go on the stack
-void TraverseTrees(const TraversalNode* na, int root_a, const TraversalNode* nb, int root_b, double threshold,
-                   CollisionScratch* s, CollisionStats* stats) {
+void TraverseTrees(const TraversalNode* na, const int* end_a, int root_a, const TraversalNode* nb, const int* end_b,
+                   int root_b, double threshold, CollisionScratch* s, CollisionStats* stats) {
   s->stack.clear();
   s->pairs.clear();
   int tests = 0;
@@ -53,11 +58,12 @@ void TraverseTrees(const TraversalNode* na, int root_a, const TraversalNode* nb,
     const TraversalNode& a = na[ia];
     const TraversalNode& b = nb[ib];
     const double reach = a.radius + b.radius + threshold;
-    const double d2 = (a.center - b.center).squaredNorm();
+    const Vec3 d = a.center - b.center;
+    const double d2 = d.squaredNorm();
     ++tests;
     if (d2 > reach * reach) return;
     if (a.IsLeaf() && b.IsLeaf())
-      s->pairs.push_back({a.leaf(), b.leaf(), d2});
+      s->pairs.push_back({a.leaf(), b.leaf(), d2, d});
     else
       s->stack.emplace_back(ia, ib);
   };
@@ -67,13 +73,24 @@ void TraverseTrees(const TraversalNode* na, int root_a, const TraversalNode* nb,
     s->stack.pop_back();
     const TraversalNode& a = na[ia];
     const TraversalNode& b = nb[ib];
-    // descend the larger node
+    // descend the larger node; a small subtree against a leaf is scanned: its
+    // leaves, a contiguous node range, are tested one after the other
     if (b.IsLeaf() || (!a.IsLeaf() && a.radius >= b.radius)) {
-      visit(a.child[1], ib);
-      visit(a.child[0], ib);
+      if (b.IsLeaf() && end_a[ia] - ia <= kScanNodes) {
+        for (int k = ia + 1; k < end_a[ia]; ++k)
+          if (na[k].IsLeaf()) visit(k, ib);
+      } else {
+        visit(a.child[1], ib);
+        visit(a.child[0], ib);
+      }
     } else {
-      visit(ia, b.child[1]);
-      visit(ia, b.child[0]);
+      if (a.IsLeaf() && end_b[ib] - ib <= kScanNodes) {
+        for (int k = ib + 1; k < end_b[ib]; ++k)
+          if (nb[k].IsLeaf()) visit(ia, k);
+      } else {
+        visit(ia, b.child[1]);
+        visit(ia, b.child[0]);
+      }
     }
   }
   stats->node_pairs += tests;
@@ -135,6 +152,28 @@ bool ProjectNear(const SphereTree& ts, const Vec3* pos, const Vec3* nrm, const V
   const double support = mls.support * mls.bandwidth;
   const MlsPatch* patch = ts.leaf_patch(*leaf);
   Vec3 q = patch ? patch->Closest(x) : x;
+  // Where the leaf's patch was checked at build to stay within kPatchExact * h of
+  // the MLS surface over the whole leaf (flat faces, gently curved ones), the
+  // foot of x on the patch is its foot on the surface to that accuracy: no fit.
+  // A foot that lands in a neighbouring leaf tries that leaf's patch, once.
+  if (patch && patch->h == mls.bandwidth) {
+    int at = *leaf;
+    for (int hop = 0; hop < 2; ++hop) {
+      const MlsPatch* p = ts.leaf_patch(at);
+      if (!p || !(ts.leaf_patch_error(at) <= kPatchExact * mls.bandwidth)) break;
+      const Vec3 f = hop == 0 ? q : p->Closest(x);
+      const TreeNode& node = ts.node(ts.leaf_node(at));
+      if ((f - node.center).squaredNorm() <= node.rest_radius * node.rest_radius) {
+        *leaf = at;
+        out->point = f;
+        out->normal = p->NormalBelow(f);
+        out->converged = true;
+        return f.allFinite() && out->normal.allFinite();
+      }
+      at = NearestLeaf(ts, f);
+      if (at == *leaf) break;
+    }
+  }
   Vec3 normal = Vec3::UnitZ();
   out->iterations = 0;
   out->converged = false;
@@ -411,24 +450,30 @@ void CollidePair(int id_a, const CollisionShape& a, const Pose& pose_a, int id_b
   const Pose b_in_a = pose_a.Inverse() * pose_b;
   const Pose a_in_b = b_in_a.Inverse();
   // the smaller tree is moved into the larger one's frame, once
-  if (a.tree->nodes().size() <= b.tree->nodes().size()) {
+  const bool in_b = a.tree->nodes().size() <= b.tree->nodes().size();
+  if (in_b) {
     MoveNodes(*a.tree, a_in_b, &s->moved);
-    TraverseTrees(s->moved.data(), a.tree->root(), b.tree->traversal(), b.tree->root(), params.contact_threshold, s,
-                  &local);
+    TraverseTrees(s->moved.data(), a.tree->span_end(), a.tree->root(), b.tree->traversal(), b.tree->span_end(),
+                  b.tree->root(), params.contact_threshold, s, &local);
   } else {
     MoveNodes(*b.tree, b_in_a, &s->moved);
-    TraverseTrees(a.tree->traversal(), a.tree->root(), s->moved.data(), b.tree->root(), params.contact_threshold, s,
-                  &local);
+    TraverseTrees(a.tree->traversal(), a.tree->span_end(), a.tree->root(), s->moved.data(), b.tree->span_end(),
+                  b.tree->root(), params.contact_threshold, s, &local);
   }
 
   // closest overlapping leaf on the other body, for every leaf of each body, and
   // how high each leaf centre stands above the other body's overlapping leaf slabs
   const SphereTree& ta = *a.tree;
   const SphereTree& tb = *b.tree;
+  // from the centres' offset d (a's minus b's, in the traversal's frame): a's
+  // height above b's slab is d . n_b, b's above a's is -d . n_a, each normal
+  // turned into that frame (R maps a's frame to b's)
+  const Mat3& R = a_in_b.R;
   for (const CollisionScratch::LeafPair& p : s->pairs) {
-    const Vec3 ca = ta.control_point(p.leaf_a), cb = tb.control_point(p.leaf_b);
-    const double ha = (a_in_b.Apply(ca) - cb).dot(tb.leaf_normal(p.leaf_b)) - tb.leaf_height(p.leaf_b);
-    const double hb = (b_in_a.Apply(cb) - ca).dot(ta.leaf_normal(p.leaf_a)) - ta.leaf_height(p.leaf_a);
+    const Vec3& nb = tb.leaf_normal(p.leaf_b);
+    const Vec3& na = ta.leaf_normal(p.leaf_a);
+    const double ha = (in_b ? p.d.dot(nb) : p.d.dot(R.transpose() * nb)) - tb.leaf_height(p.leaf_b);
+    const double hb = -(in_b ? p.d.dot(R * na) : p.d.dot(na)) - ta.leaf_height(p.leaf_a);
     if (s->best_a[p.leaf_a] < 0) {
       s->touched_a.push_back(p.leaf_a);
       s->lift_a[p.leaf_a] = ha;

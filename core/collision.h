@@ -74,6 +74,7 @@ struct CollisionScratch {
   struct LeafPair {
     int leaf_a, leaf_b;
     double dist2;  // squared distance between the two leaf centres
+    Vec3 d;        // centre of a minus centre of b, in the frame of the traversal
   };
   std::vector<std::pair<int, int>> stack;
   std::vector<LeafPair> pairs;

@@ -3,6 +3,7 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "core/point_grid.h"
 
@@ -153,6 +154,7 @@ SphereTree::EBuildError SphereTree::Build(const PointCloud& cloud, const MlsPara
   // the MLS surface at each leaf centre, from its neighbourhood
   patches_.assign(leaf_node_.size(), MlsPatch{});
   patch_ok_.assign(leaf_node_.size(), 0);
+  patch_error_.assign(leaf_node_.size(), std::numeric_limits<double>::infinity());
   for (size_t l = 0; l < leaf_node_.size(); ++l) {
     int count = 0;
     const int* idx = neighbourhood(static_cast<int>(l), &count);
@@ -167,6 +169,22 @@ SphereTree::EBuildError SphereTree::Build(const PointCloud& cloud, const MlsPara
     for (int k = 0; ok && k < count; ++k)
       ok = cloud.normals[idx[k]].dot(patch.NormalBelow(cloud.positions[idx[k]])) > kPatchMinCos;
     patch_ok_[l] = ok;
+    // how far the patch strays from the MLS surface over the leaf: the largest
+    // distance from the MLS projection of its centre and of up to 12 of its points,
+    // spread over it, to the patch; infinite when untrusted or a projection fails
+    double err = ok ? 0.0 : std::numeric_limits<double>::infinity();
+    const TreeNode& leaf = nodes_[leaf_node_[l]];
+    const int stride = std::max(1, (leaf.count + 11) / 12);
+    for (int k = leaf.first - stride; std::isfinite(err) && k < leaf.first + leaf.count; k += stride) {
+      const Vec3& p = k < leaf.first ? leaf.center : cloud.positions[point_order_[k]];
+      MlsProjection proj;
+      if (!MlsProject(cloud.positions.data(), cloud.normals.data(), idx, count, p, mls, &proj) || !proj.converged) {
+        err = std::numeric_limits<double>::infinity();
+        break;
+      }
+      err = std::max(err, (proj.point - patch.Closest(proj.point)).norm());
+    }
+    patch_error_[l] = err;
   }
 
   hot_.resize(nodes_.size());
@@ -176,6 +194,12 @@ SphereTree::EBuildError SphereTree::Build(const PointCloud& cloud, const MlsPara
     hot_[i].radius = n.radius;
     hot_[i].child[0] = n.child[0];
     hot_[i].child[1] = n.IsLeaf() ? n.leaf : n.child[1];
+  }
+  // depth-first layout: a subtree is the node range [i, span_end_[i])
+  span_end_.assign(nodes_.size(), 0);
+  for (size_t k = nodes_.size(); k-- > 0;) {
+    const TreeNode& n = nodes_[k];
+    span_end_[k] = n.IsLeaf() ? static_cast<int>(k) + 1 : span_end_[n.child[1]];
   }
   growth_.assign(nodes_.size(), 0.0);
   dirty_.clear();

@@ -76,6 +76,9 @@ class SphereTree {
   const TreeNode& node(int i) const { return nodes_[i]; }
   /// Compact copies of the nodes (same indices) for traversal.
   const TraversalNode* traversal() const { return hot_.data(); }
+  /// Nodes are in depth-first order, left child first: node i's subtree is the
+  /// index range [i, span_end()[i]).
+  const int* span_end() const { return span_end_.data(); }
   int root() const { return 0; }
   int num_leaves() const { return static_cast<int>(leaf_node_.size()); }
   int leaf_node(int leaf) const { return leaf_node_[leaf]; }
@@ -107,6 +110,9 @@ class SphereTree {
   /// The MLS surface fitted at a leaf's centre (rest frame), or null when that
   /// fit failed: a first guess for projections onto the surface near the leaf.
   const MlsPatch* leaf_patch(int leaf) const { return patch_ok_[leaf] ? &patches_[leaf] : nullptr; }
+  /// Largest distance between a trusted leaf patch and the MLS surface over the
+  /// leaf (measured at build at the leaf's points; infinite when not trusted).
+  double leaf_patch_error(int leaf) const { return patch_error_[leaf]; }
   double border() const { return border_; }
   double cover_margin() const { return cover_margin_; }
 
@@ -129,6 +135,7 @@ class SphereTree {
   void SyncRadius(int i) { hot_[i].radius = nodes_[i].radius; }
   std::vector<TreeNode> nodes_;
   std::vector<TraversalNode> hot_;
+  std::vector<int> span_end_;
   std::vector<int> leaf_node_;
   std::vector<Vec3> control_points_;
   std::vector<int> point_order_;
@@ -140,6 +147,7 @@ class SphereTree {
   std::vector<double> leaf_min_cos_;
   std::vector<MlsPatch> patches_;
   std::vector<uint8_t> patch_ok_;
+  std::vector<double> patch_error_;
   std::vector<double> growth_;      // radius growth of each node over its rest radius (m)
   std::vector<int> dirty_;          // scratch for Refit
   std::vector<uint8_t> dirty_mark_;
