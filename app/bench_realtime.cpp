@@ -24,6 +24,7 @@
 #include <vector>
 
 #include "app/bench.h"
+#include "app/pacing.h"
 #include "app/paths.h"
 #include "app/render_options.h"
 #include "app/tracked_sim.h"
@@ -33,20 +34,6 @@ namespace gs::app {
 namespace {
 
 constexpr double kTrackerHz = 100.0;
-
-int64_t NowNs() {
-  timespec ts;
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<int64_t>(ts.tv_sec) * 1000000000 + ts.tv_nsec;
-}
-
-void SleepUntilNs(int64_t ns) {
-  timespec ts;
-  ts.tv_sec = static_cast<time_t>(ns / 1000000000);
-  ts.tv_nsec = static_cast<long>(ns % 1000000000);
-  while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) == EINTR) {
-  }
-}
 
 double LoadAverage() {
   double l = 0.0;
@@ -85,6 +72,7 @@ Session MakeSession(double seconds) {
 
 struct RunResult {
   bool render = false;
+  double dt = 0.0;
   int64_t steps = 0;
   int64_t missed = 0;           ///< steps that ended after their deadline
   int64_t late_runs = 0;        ///< runs of consecutive late steps (one delay makes a run while the replay catches up)
@@ -93,15 +81,18 @@ struct RunResult {
   double worst_late_ms = 0.0;   ///< largest (end - deadline)
   double step_median_ms = 0, step_p99_ms = 0, step_max_ms = 0;  ///< World::Step
   double loop_median_ms = 0, loop_p99_ms = 0;                   ///< datagrams + step + snapshot
+  double wake_p99_ms = 0, wake_max_ms = 0;  ///< how late the loop woke after each step's start time
   double wall_s = 0.0;
+  std::string pacing;           ///< what the OS granted the loop (PacingGrant::Describe)
+  std::string refused;
   int frames_taken = 0, frames_drawn = 0, frames_dropped = 0;
   int max_contacts = 0;
   int lifts = 0;                ///< cycles in which the box rose 2 cm above its start
   size_t datagrams = 0;
 };
 
-bool RunOnce(const std::string& scene, const Session& session, double seconds, bool render, RunResult* out,
-             std::string* error) {
+bool RunOnce(const std::string& scene, const Session& session, double seconds, bool render, const PacingOptions& po,
+             RunResult* out, std::string* error) {
   auto sim = std::make_unique<TrackedSim>();
   if (!sim->Load(scene, error)) return false;
   World& w = sim->world();
@@ -109,26 +100,34 @@ bool RunOnce(const std::string& scene, const Session& session, double seconds, b
   const int64_t steps = static_cast<int64_t>(std::llround(seconds / dt));
   RenderOptions ro;
   ro.discard = render;  // draw every frame time, write nothing
+  ro.avoid_cpu = po.cpu;
   FrameRecorder recorder;
   if (!recorder.Start(ro, sim->scene(), error, ERecordMode::Live)) return false;
   const int tracked = sim->scene().tracked_body;
   const double z0 = tracked >= 0 ? w.bodies[tracked].pose.t.z() : 0.0;
-  std::vector<double> step_ms, loop_ms;
+  std::vector<double> step_ms, loop_ms, wake_ms;
   step_ms.reserve(static_cast<size_t>(steps));
   loop_ms.reserve(static_cast<size_t>(steps));
+  wake_ms.reserve(static_cast<size_t>(steps));
   tracking::TargetSample sample;
   char tracker_text[160] = "";
   size_t next = 0;
   bool lifted = false;
   const int64_t period = static_cast<int64_t>(std::llround(dt * 1e9));
-  const int64_t start = NowNs() + 2 * period;
   *out = RunResult();
   out->render = render;
+  out->dt = dt;
+  // after the render thread started, so that it keeps normal scheduling
+  const PacingGrant grant = EnterRealtime(po);
+  out->pacing = grant.Describe();
+  out->refused = grant.refused;
+  const int64_t start = MonotonicNs() + 2 * period;
   out->load_start = LoadAverage();
   bool was_late = false;
   for (int64_t k = 0; k < steps; ++k) {
-    SleepUntilNs(start + k * period);
-    const int64_t begin = NowNs();
+    WaitUntilNs(start + k * period, po.spin_ns);
+    const int64_t begin = MonotonicNs();
+    wake_ms.push_back(1e-6 * static_cast<double>(begin - (start + k * period)));
     // every datagram that arrived by now applies from this step on (as in replay)
     while (next < session.datagrams.size() && session.arrival_s[next] <= w.time + 1e-12) {
       const std::string& d = session.datagrams[next];
@@ -140,7 +139,7 @@ bool RunOnce(const std::string& scene, const Session& session, double seconds, b
     sim->Step();
     if (recorder.FrameDue(w)) sim->HudText(tracker_text, sizeof tracker_text);
     recorder.AfterStep(w, tracker_text);
-    const int64_t end = NowNs();
+    const int64_t end = MonotonicNs();
     const int64_t late = end - (start + (k + 1) * period);
     if (end - begin > period) ++out->overlong;
     if (late > 0 && !was_late) ++out->late_runs;
@@ -158,7 +157,8 @@ bool RunOnce(const std::string& scene, const Session& session, double seconds, b
       lifted = up;
     }
   }
-  out->wall_s = 1e-9 * static_cast<double>(NowNs() - start);
+  out->wall_s = 1e-9 * static_cast<double>(MonotonicNs() - start);
+  LeaveRealtime();
   out->load_end = LoadAverage();
   out->steps = steps;
   out->datagrams = next;
@@ -171,7 +171,43 @@ bool RunOnce(const std::string& scene, const Session& session, double seconds, b
   out->step_max_ms = step_ms.empty() ? 0.0 : *std::max_element(step_ms.begin(), step_ms.end());
   out->loop_median_ms = Percentile(loop_ms, 0.5);
   out->loop_p99_ms = Percentile(loop_ms, 0.99);
+  out->wake_p99_ms = Percentile(wake_ms, 0.99);
+  out->wake_max_ms = wake_ms.empty() ? 0.0 : *std::max_element(wake_ms.begin(), wake_ms.end());
   return true;
+}
+
+// the platform's own share: the same paced loop doing no work (cyclictest's
+// measurement), so that the misses of a run can be told from the machine's
+struct EmptyResult {
+  int64_t steps = 0, missed = 0, late_runs = 0;
+  double worst_late_ms = 0.0, wake_p99_ms = 0.0, wake_max_ms = 0.0;
+};
+
+EmptyResult RunEmpty(double seconds, double dt, const PacingOptions& po) {
+  EmptyResult r;
+  r.steps = static_cast<int64_t>(std::llround(seconds / dt));
+  std::vector<double> wake_ms;
+  wake_ms.reserve(static_cast<size_t>(r.steps));
+  EnterRealtime(po);
+  const int64_t period = static_cast<int64_t>(std::llround(dt * 1e9));
+  const int64_t start = MonotonicNs() + 2 * period;
+  bool was_late = false;
+  for (int64_t k = 0; k < r.steps; ++k) {
+    WaitUntilNs(start + k * period, po.spin_ns);
+    const int64_t end = MonotonicNs();
+    wake_ms.push_back(1e-6 * static_cast<double>(end - (start + k * period)));
+    const int64_t late = end - (start + (k + 1) * period);
+    if (late > 0 && !was_late) ++r.late_runs;
+    was_late = late > 0;
+    if (late > 0) {
+      ++r.missed;
+      r.worst_late_ms = std::max(r.worst_late_ms, 1e-6 * static_cast<double>(late));
+    }
+  }
+  LeaveRealtime();
+  r.wake_p99_ms = Percentile(wake_ms, 0.99);
+  r.wake_max_ms = wake_ms.empty() ? 0.0 : *std::max_element(wake_ms.begin(), wake_ms.end());
+  return r;
 }
 
 void PrintJson(const RunResult& r, double seconds) {
@@ -180,52 +216,73 @@ void PrintJson(const RunResult& r, double seconds) {
               "\"worst_lateness_ms\":%.4f,\"step_ms_median\":%.4f,\"step_ms_p99\":%.4f,\"step_ms_max\":%.4f,"
               "\"loop_ms_median\":%.4f,\"loop_ms_p99\":%.4f,\"wall_s\":%.3f,\"frames\":%d,\"frames_taken\":%d,"
               "\"frames_dropped\":%d,\"max_contacts\":%d,\"lifts\":%d,\"datagrams\":%zu,"
+              "\"wake_ms_p99\":%.4f,\"wake_ms_max\":%.4f,\"pacing\":\"%s\",\"pacing_refused\":\"%s\","
               "\"load_average_start\":%.2f,\"load_average_end\":%.2f}\n",
               r.render ? "true" : "false", seconds, static_cast<long long>(r.steps), static_cast<long long>(r.missed),
               static_cast<long long>(r.late_runs), static_cast<long long>(r.overlong), r.worst_late_ms, r.step_median_ms, r.step_p99_ms, r.step_max_ms, r.loop_median_ms, r.loop_p99_ms,
-              r.wall_s, r.frames_drawn, r.frames_taken, r.frames_dropped, r.max_contacts, r.lifts, r.datagrams, r.load_start, r.load_end);
+              r.wall_s, r.frames_drawn, r.frames_taken, r.frames_dropped, r.max_contacts, r.lifts, r.datagrams, r.wake_p99_ms,
+              r.wake_max_ms, r.pacing.c_str(), r.refused.c_str(), r.load_start, r.load_end);
 }
 
 }  // namespace
 
 int RunBenchRealtime(const BenchOptions& opt) {
   const double seconds = opt.seconds > 0 ? opt.seconds : (opt.quick ? 2.0 : 60.0);
-  const std::string scene = ResolveResource(opt.scene.empty() ? "config/tracked_hand.yaml" : opt.scene);
+  const std::string scene = ResolveResource(opt.scene.empty() ? "config/tracked_paper_grasp.yaml" : opt.scene);
   const Session session = MakeSession(seconds);
   if (!opt.json)
     std::printf("graspsim bench realtime: %s, the synthetic hand's grasp cycle looped over %g s at %g Hz, replayed at "
                 "the recorded pace; 1 kHz deadlines; rendering 640x480 at 30 fps to a null sink, then without\n",
                 scene.c_str(), seconds, kTrackerHz);
   RunResult with, without;
+  EmptyResult empty;
   std::string error;
-  if (!RunOnce(scene, session, seconds, true, &with, &error) ||
-      !RunOnce(scene, session, seconds, false, &without, &error)) {
+  PacingOptions po;
+  po.priority = opt.rt_priority;
+  po.cpu = opt.cpu;
+  po.spin_ns = static_cast<int64_t>(std::llround(opt.spin_us * 1e3));
+  if (!RunOnce(scene, session, seconds, true, po, &with, &error) ||
+      !RunOnce(scene, session, seconds, false, po, &without, &error)) {
     std::fprintf(stderr, "bench realtime: %s\n", error.c_str());
     return 3;
   }
+  empty = RunEmpty(seconds, with.dt, po);
   if (opt.json) {
     PrintJson(without, seconds);
     PrintJson(with, seconds);
+    std::printf("{\"bench\":\"realtime\",\"empty_loop\":true,\"seconds\":%g,\"steps\":%lld,\"missed_deadlines\":%lld,"
+                "\"late_runs\":%lld,\"worst_lateness_ms\":%.4f,\"wake_ms_p99\":%.4f,\"wake_ms_max\":%.4f}\n",
+                seconds, static_cast<long long>(empty.steps), static_cast<long long>(empty.missed),
+                static_cast<long long>(empty.late_runs), empty.worst_late_ms, empty.wake_p99_ms, empty.wake_max_ms);
     std::printf("{\"bench\":\"realtime\",\"seconds\":%g,\"steps\":%lld,\"missed_deadlines\":%lld,"
                 "\"late_runs\":%lld,\"overlong_steps\":%lld,"
                 "\"worst_lateness_ms\":%.4f,\"step_ms_median\":%.4f,\"step_ms_p99\":%.4f,\"frames\":%d,"
                 "\"frames_dropped\":%d,\"no_render_missed_deadlines\":%lld,\"no_render_worst_lateness_ms\":%.4f,"
-                "\"no_render_step_ms_median\":%.4f,\"target_met\":%s}\n",
+                "\"no_render_step_ms_median\":%.4f,\"empty_loop_missed_deadlines\":%lld,\"empty_loop_late_runs\":%lld,"
+                "\"pacing\":\"%s\",\"target_met\":%s}\n",
                 seconds, static_cast<long long>(with.steps), static_cast<long long>(with.missed),
                 static_cast<long long>(with.late_runs), static_cast<long long>(with.overlong), with.worst_late_ms,
                 with.step_median_ms, with.step_p99_ms, with.frames_drawn, with.frames_dropped,
                 static_cast<long long>(without.missed), without.worst_late_ms, without.step_median_ms,
+                static_cast<long long>(empty.missed), static_cast<long long>(empty.late_runs), with.pacing.c_str(),
                 with.missed == 0 && with.step_median_ms <= 1.0 ? "true" : "false");
     return 0;
   }
-  std::printf("  %-18s %8s %8s %6s %8s %10s %9s %9s %9s %9s %8s %8s %8s\n", "", "steps", "missed", "runs", "overlong", "worst late", "step med",
-              "step p99", "step max", "loop p99", "frames", "dropped", "contacts");
+  std::printf("  %-18s %8s %8s %6s %8s %10s %9s %9s %9s %9s %9s %9s %8s %8s %8s\n", "", "steps", "missed", "runs", "overlong", "worst late", "step med",
+              "step p99", "step max", "loop p99", "wake p99", "wake max", "frames", "dropped", "contacts");
   for (const RunResult* r : {&with, &without})
-    std::printf("  %-18s %8lld %8lld %6lld %8lld %7.3f ms %6.3f ms %6.3f ms %6.3f ms %6.3f ms %8d %8d %8d\n",
+    std::printf("  %-18s %8lld %8lld %6lld %8lld %7.3f ms %6.3f ms %6.3f ms %6.3f ms %6.3f ms %6.3f ms %6.3f ms %8d %8d %8d\n",
                 r->render ? "with rendering" : "without rendering", static_cast<long long>(r->steps),
                 static_cast<long long>(r->missed), static_cast<long long>(r->late_runs),
                 static_cast<long long>(r->overlong), r->worst_late_ms, r->step_median_ms, r->step_p99_ms, r->step_max_ms,
-                r->loop_p99_ms, r->frames_drawn, r->frames_dropped, r->max_contacts);
+                r->loop_p99_ms, r->wake_p99_ms, r->wake_max_ms, r->frames_drawn, r->frames_dropped, r->max_contacts);
+  std::printf("  %-18s %8lld %8lld %6lld %8s %7.3f ms %9s %9s %9s %9s %6.3f ms %6.3f ms\n", "empty loop",
+              static_cast<long long>(empty.steps), static_cast<long long>(empty.missed),
+              static_cast<long long>(empty.late_runs), "-", empty.worst_late_ms, "-", "-", "-", "-", empty.wake_p99_ms,
+              empty.wake_max_ms);
+  std::printf("  (empty loop: the same pacing with no step, the machine's own misses)\n");
+  std::printf("  simulation thread: %s%s%s; spin %.0f us before each deadline\n", with.pacing.c_str(),
+              with.refused.empty() ? "" : "; ", with.refused.c_str(), opt.spin_us);
   std::printf("  load average %.2f -> %.2f (rendering run), %.2f -> %.2f (without)\n", with.load_start, with.load_end,
               without.load_start, without.load_end);
   std::printf("  the box was lifted in %d of %d grasp cycles; target (no missed deadline, step median <= 1 ms): %s\n",

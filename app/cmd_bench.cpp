@@ -38,7 +38,16 @@ void AddBenchCommand(CLI::App& app, int* exit_code) {
                            "deadlines with 640x480 rendering at 30 fps and without: missed deadlines, step median",
                            RunBenchRealtime);
   realtime->add_option("--seconds", opt->seconds, "session length (default 60; --quick: 2)")->check(CLI::Range(0.1, 3600.0));
-  realtime->add_option("--scene", opt->scene, "a scene with a tracker section (default config/tracked_hand.yaml)");
+  realtime->add_option("--rt-priority", opt->rt_priority,
+                       "SCHED_FIFO priority of the simulation loop, 0 for normal scheduling (refused without "
+                       "CAP_SYS_NICE: said, and the run goes on)")
+      ->check(CLI::Range(0, 99));
+  realtime->add_option("--spin-us", opt->spin_us, "busy-wait this long before each deadline instead of sleeping")
+      ->check(CLI::Range(0.0, 1000.0));
+  realtime->add_option("--cpu", opt->cpu,
+                       "the simulation loop's core; rendering runs on the others (-1: no pinning)")
+      ->check(CLI::Range(-1, 1023));
+  realtime->add_option("--scene", opt->scene, "a scene with a tracker section (default config/tracked_paper_grasp.yaml, the paper's densities)");
   CLI::App* tradeoff = add("tradeoff",
                             "run time against error for every knob (points, control points, bandwidth, GS tolerance "
                             "and cap, dt), Pareto fronts",

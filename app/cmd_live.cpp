@@ -23,6 +23,8 @@ struct LiveCmd {
   std::string lcm_url;
   bool quiet = false;
   RenderOptions render;  ///< --frames, --video, ... (docs/render.md)
+  int rt_priority = 50;  ///< SCHED_FIFO priority of the simulation thread (0: normal)
+  int cpu = 0;           ///< the simulation thread's core (-1: anywhere)
 };
 
 int Live(const LiveCmd& c) {
@@ -43,6 +45,8 @@ int Live(const LiveCmd& c) {
   o.publish_rate = c.publish_rate >= 0 ? c.publish_rate : tc.publish_rate_hz;
   o.lcm_url = c.lcm_url.empty() ? tc.lcm_url : c.lcm_url;
   o.quiet = c.quiet;
+  o.pacing.priority = c.rt_priority;
+  o.pacing.cpu = c.cpu;
   const World& w = sim->world();
   char lcm[300];
   if (o.publish_rate > 0)
@@ -56,7 +60,9 @@ int Live(const LiveCmd& c) {
   std::fflush(stdout);
   // a render thread fed from a fixed pool of snapshots: never waited for
   FrameRecorder recorder;
-  if (!recorder.Start(c.render, sim->scene(), &error, ERecordMode::Live)) {
+  RenderOptions ro = c.render;
+  ro.avoid_cpu = c.cpu;  // rendering on the other core(s)
+  if (!recorder.Start(ro, sim->scene(), &error, ERecordMode::Live)) {
     std::fprintf(stderr, "live: %s\n", error.c_str());
     return kExitUsage;
   }
@@ -79,6 +85,8 @@ int Live(const LiveCmd& c) {
               st.wall_s, static_cast<long long>(st.steps), st.sim_rate_hz(), 1.0 / w.params.dt,
               static_cast<long long>(st.overruns), st.steps ? 100.0 * st.overruns / st.steps : 0.0,
               static_cast<long long>(st.skipped_steps), st.step_median_ms, st.step_p99_ms, st.step_max_ms);
+  std::printf("live: simulation thread: %s%s%s\n", st.pacing.Describe().c_str(), st.pacing.refused.empty() ? "" : "; ",
+              st.pacing.refused.c_str());
   std::printf("live: tracker %.2f Hz received (%llu datagrams, %llu applied, the rest stale), parse errors %s, %llu "
               "rejected senders; %llu LCM messages published\n",
               st.tracker_hz, static_cast<unsigned long long>(st.datagrams),
@@ -95,7 +103,7 @@ int Live(const LiveCmd& c) {
               "\"datagrams\":%llu,\"tracker_hz\":%.4f,\"parse_errors\":%llu,\"rejected_senders\":%llu,"
               "\"silences\":%d,\"recoveries\":%d,\"rate_changes\":%d,\"garbage_bursts\":%d,\"floods\":%d,"
               "\"rejected_bursts\":%d,\"tracker_state\":\"%s\",\"published\":%llu,\"lcm_ok\":%s,"
-              "\"rendering\":%s,\"frames_drawn\":%lld,\"frames_dropped\":%lld}\n",
+              "\"rendering\":%s,\"frames_drawn\":%lld,\"frames_dropped\":%lld,\"pacing\":\"%s\"}\n",
               st.wall_s, static_cast<long long>(st.steps), st.sim_rate_hz(), 1.0 / w.params.dt,
               static_cast<long long>(st.overruns), static_cast<long long>(st.skipped_steps), st.step_median_ms,
               st.step_max_ms, static_cast<unsigned long long>(st.datagrams), st.tracker_hz,
@@ -103,7 +111,7 @@ int Live(const LiveCmd& c) {
               h.silences, h.recoveries, h.rate_changes, h.garbage_bursts, h.floods, h.rejected_bursts,
               st.tracker_state.c_str(), static_cast<unsigned long long>(st.published),
               st.lcm_ok ? "true" : "false", rendering ? "true" : "false", static_cast<long long>(st.frames_drawn),
-              static_cast<long long>(st.frames_dropped));
+              static_cast<long long>(st.frames_dropped), st.pacing.Describe().c_str());
   return kExitOk;
 }
 
@@ -122,6 +130,14 @@ void AddLiveCommand(CLI::App& app, int* exit_code) {
       ->check(CLI::Range(0.0, 1e5));
   cmd->add_option("--lcm-url", c->lcm_url, "LCM URL (default: the scene's, else LCM's default udpm)");
   cmd->add_flag("--quiet", c->quiet, "no status line");
+  cmd->add_option("--rt-priority", c->rt_priority,
+                  "SCHED_FIFO priority of the simulation thread, 0 for normal scheduling (needs CAP_SYS_NICE; a "
+                  "refusal is said and live goes on)")
+      ->check(CLI::Range(0, 99))
+      ->capture_default_str();
+  cmd->add_option("--cpu", c->cpu, "the simulation thread's core; rendering runs on the others (-1: anywhere)")
+      ->check(CLI::Range(-1, 1023))
+      ->capture_default_str();
   AddRenderOptions(cmd, &c->render);
   cmd->callback([c, exit_code]() { *exit_code = Live(*c); });
 }

@@ -22,14 +22,6 @@ namespace {
 
 using tracking::SteadyNanoseconds;
 
-void SleepUntil(int64_t ns) {
-  timespec ts;
-  ts.tv_sec = static_cast<time_t>(ns / 1000000000);
-  ts.tv_nsec = static_cast<long>(ns % 1000000000);
-  while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) == EINTR) {
-  }
-}
-
 int64_t WallMicroseconds() {
   return std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch())
       .count();
@@ -223,11 +215,13 @@ bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::str
   const int64_t start_ns = SteadyNanoseconds() + 2 * period_ns;
   if (frames && !frames->active()) frames = nullptr;
   std::thread sim_thread([&] {
+    // this thread alone: the receiver and render threads keep normal scheduling
+    stats->pacing = EnterRealtime(opt.pacing);
     tracking::TargetSample s;
     char tracker_text[160] = "";
     int64_t k = 0;          // step index on the schedule
     int64_t anchor = start_ns;
-    SleepUntil(anchor);
+    WaitUntilNs(anchor, opt.pacing.spin_ns);
     while (!stop.load(std::memory_order_relaxed)) {
       const int64_t begin = SteadyNanoseconds();
       bool fresh = false;
@@ -267,7 +261,7 @@ bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::str
         anchor += behind * period_ns;
         continue;
       }
-      SleepUntil(next);
+      WaitUntilNs(next, opt.pacing.spin_ns);
     }
   });
 

@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "app/pacing.h"
 #include "app/tracked_sim.h"
 #include "tracking/tracker_health.h"
 #include "tracking/udp_receiver.h"
@@ -29,6 +30,7 @@ struct LiveOptions {
   bool status = true;           ///< status line (on a terminal: one updated line; otherwise a line every 5 s)
   bool quiet = false;           ///< neither the status line nor tracker events
   double silent_after_s = 0.25; ///< no datagram this long: the tracker is reported silent
+  PacingOptions pacing;         ///< the simulation thread's scheduling (app/pacing.h); default normal
 };
 
 struct LiveStats {
@@ -54,6 +56,7 @@ struct LiveStats {
   /// with rendering (--frames/--video): frames drawn, and frame times dropped
   /// because the render thread was behind (the simulation never waits for it)
   int64_t frames_drawn = 0, frames_dropped = 0;
+  PacingGrant pacing;           ///< what the OS granted the simulation thread
   double sim_rate_hz() const { return wall_s > 0 ? static_cast<double>(steps) / wall_s : 0.0; }
 };
 

@@ -1,6 +1,7 @@
 // The render options and the render thread (the scene's camera section is read in scene_camera.cpp).
 #include "app/render_options.h"
 
+#include <sched.h>
 #include <sys/resource.h>
 #include <sys/syscall.h>
 #include <unistd.h>
@@ -232,6 +233,15 @@ void FrameRecorder::Loop() {
     // starves rendering outright on a busy machine (frames of seconds, and a
     // live that waits minutes at exit for its queued frames)
     setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), 10);
+    // and off the simulation's core when it has one of its own
+    const long cpus = sysconf(_SC_NPROCESSORS_ONLN);
+    if (opt_.avoid_cpu >= 0 && cpus > 1 && opt_.avoid_cpu < cpus && cpus <= CPU_SETSIZE) {
+      cpu_set_t set;
+      CPU_ZERO(&set);
+      for (int c = 0; c < static_cast<int>(cpus); ++c)
+        if (c != opt_.avoid_cpu) CPU_SET(c, &set);
+      sched_setaffinity(0, sizeof set, &set);  // best effort: a refusal leaves the thread where it was
+    }
   }
   render::Renderer renderer;
   std::string err;

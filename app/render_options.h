@@ -32,6 +32,7 @@ struct RenderOptions {
   std::string arrows = "pair";  ///< pair (resultant per touching body pair), contact, none
   bool no_hud = false;
   bool discard = false;        ///< draw every frame, write nothing (bench realtime's null sink)
+  int avoid_cpu = -1;          ///< live: keep the render thread (and llvmpipe's) off this core, the simulation's
   bool enabled() const { return !frames.empty() || !video.empty() || discard; }
 };
 

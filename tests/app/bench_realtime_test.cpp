@@ -1,7 +1,8 @@
-// `graspsim bench realtime --seconds 2 --json`: the counts are consistent (one
-// step per millisecond of the session, 30 frame times per second, each drawn or
-// dropped, the same steps without rendering), not the timing: deadlines belong
-// to the benchmark's own figures (docs/benchmarks.md).
+// `graspsim bench realtime --seconds 2 --json` (on the tenth-density tracked
+// scene, to keep the test short): the counts are consistent (one step per
+// millisecond of the session, 30 frame times per second, each drawn or dropped,
+// the same steps without rendering and in the empty loop), not the timing:
+// deadlines belong to the benchmark's own figures (docs/benchmarks.md).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -37,16 +38,30 @@ double Field(const std::string& line, const std::string& key) {
 }
 
 TEST(BenchRealtime, TwoSecondsGiveConsistentCounts) {
-  const std::vector<std::string> lines = RunLines("bench realtime --seconds 2 --json", "bench_realtime.json");
-  ASSERT_EQ(lines.size(), 3u);  // without rendering, with rendering, headline
+  const std::vector<std::string> lines =
+      RunLines("bench realtime --seconds 2 --json --scene " + std::string(GRASPSIM_SOURCE_DIR) +
+                   "/config/tracked_hand.yaml",
+               "bench_realtime.json");
+  ASSERT_EQ(lines.size(), 4u);  // without rendering, with rendering, empty loop, headline
   for (const std::string& l : lines) ASSERT_EQ(l.front(), '{') << l;
   const std::string& without = lines[0];
   const std::string& with = lines[1];
-  const std::string& last = lines[2];
+  const std::string& empty = lines[2];
+  const std::string& last = lines[3];
+  EXPECT_NE(empty.find("\"empty_loop\":true"), std::string::npos) << empty;
+  EXPECT_NEAR(Field(empty, "steps"), 2000, 1) << empty;
+  EXPECT_GE(Field(empty, "missed_deadlines"), 0) << empty;
+  EXPECT_LE(Field(empty, "missed_deadlines"), Field(empty, "steps")) << empty;
+  EXPECT_LE(Field(empty, "late_runs"), Field(empty, "missed_deadlines")) << empty;
+  EXPECT_GE(Field(empty, "wake_ms_max"), Field(empty, "wake_ms_p99")) << empty;
+  EXPECT_EQ(Field(last, "empty_loop_missed_deadlines"), Field(empty, "missed_deadlines"));
+  // the pacing granted is said, whatever it was
+  EXPECT_NE(last.find("\"pacing\":\""), std::string::npos) << last;
   EXPECT_NE(without.find("\"rendering\":false"), std::string::npos) << without;
   EXPECT_NE(with.find("\"rendering\":true"), std::string::npos) << with;
   for (const std::string* l : {&without, &with, &last}) {
     EXPECT_NEAR(Field(*l, "steps"), 2000, 1) << *l;
+    EXPECT_LE(Field(*l, "late_runs"), Field(*l, "missed_deadlines")) << *l;
     EXPECT_GE(Field(*l, "missed_deadlines"), 0) << *l;
     EXPECT_LE(Field(*l, "missed_deadlines"), Field(*l, "steps")) << *l;
     EXPECT_GT(Field(*l, "step_ms_median"), 0) << *l;

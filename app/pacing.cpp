@@ -1,0 +1,108 @@
+#include "app/pacing.h"
+
+#include <errno.h>
+#include <pthread.h>
+#include <sched.h>
+#include <sys/mman.h>
+#include <sys/prctl.h>
+#include <sys/resource.h>
+#include <time.h>
+#include <unistd.h>
+
+#include <cstring>
+
+#if defined(__x86_64__) || defined(__i386__)
+#include <immintrin.h>
+#define GS_SPIN_PAUSE() _mm_pause()
+#else
+#define GS_SPIN_PAUSE() ((void)0)
+#endif
+
+namespace gs::app {
+
+std::string PacingGrant::Describe() const {
+  std::string s = fifo ? "SCHED_FIFO " + std::to_string(priority) : std::string("normal scheduling");
+  if (memory_locked) s += ", memory locked";
+  if (cpu >= 0) s += ", core " + std::to_string(cpu);
+  return s;
+}
+
+PacingGrant EnterRealtime(const PacingOptions& opt) {
+  PacingGrant g;
+  const long cpus = sysconf(_SC_NPROCESSORS_ONLN);
+  if (opt.cpu >= 0 && cpus > 1 && opt.cpu < cpus && opt.cpu < CPU_SETSIZE) {
+    cpu_set_t set;
+    CPU_ZERO(&set);
+    CPU_SET(opt.cpu, &set);
+    const int rc = pthread_setaffinity_np(pthread_self(), sizeof set, &set);
+    if (rc == 0)
+      g.cpu = opt.cpu;
+    else
+      g.refused = "pinning to core " + std::to_string(opt.cpu) + " refused (" + std::strerror(rc) + ")";
+  }
+  if (opt.priority <= 0) return g;
+  // 1 ns of timer slack: the wake-up is not deferred to batch it with others
+  prctl(PR_SET_TIMERSLACK, 1UL, 0UL, 0UL, 0UL);
+  sched_param sp{};
+  sp.sched_priority = opt.priority;
+  const int rc = pthread_setschedparam(pthread_self(), SCHED_FIFO, &sp);
+  if (rc == 0) {
+    g.fifo = true;
+    g.priority = opt.priority;
+  } else {
+    if (!g.refused.empty()) g.refused += "; ";
+    g.refused += std::string("SCHED_FIFO ") + std::to_string(opt.priority) + " refused (" + std::strerror(rc) +
+                "; needs CAP_SYS_NICE or an rtprio limit, e.g. in /etc/security/limits.conf)";
+  }
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+  // a sanitizer's shadow memory is terabytes of reserved address space: not locked
+  const bool lock = false;
+#else
+  const bool lock = opt.lock_memory;
+#endif
+  if (lock) {
+    rlimit lim{};
+    const bool unlimited =
+        geteuid() == 0 || (getrlimit(RLIMIT_MEMLOCK, &lim) == 0 && lim.rlim_cur == RLIM_INFINITY);
+    const int flags = unlimited ? (MCL_CURRENT | MCL_FUTURE) : MCL_CURRENT;
+    if (mlockall(flags) == 0) {
+      g.memory_locked = true;
+    } else {
+      const int e = errno;
+      if (!g.refused.empty()) g.refused += "; ";
+      g.refused += std::string("mlockall refused (") + std::strerror(e) + "; needs CAP_IPC_LOCK or a memlock limit)";
+    }
+  }
+  return g;
+}
+
+void LeaveRealtime() {
+  cpu_set_t all;
+  CPU_ZERO(&all);
+  const long cpus = sysconf(_SC_NPROCESSORS_ONLN);
+  for (int c = 0; c < cpus && c < CPU_SETSIZE; ++c) CPU_SET(c, &all);
+  pthread_setaffinity_np(pthread_self(), sizeof all, &all);
+  sched_param sp{};
+  sp.sched_priority = 0;
+  pthread_setschedparam(pthread_self(), SCHED_OTHER, &sp);
+}
+
+int64_t MonotonicNs() {
+  timespec ts;
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return static_cast<int64_t>(ts.tv_sec) * 1000000000 + ts.tv_nsec;
+}
+
+void WaitUntilNs(int64_t ns, int64_t spin_ns) {
+  const int64_t sleep_to = ns - (spin_ns > 0 ? spin_ns : 0);
+  if (MonotonicNs() < sleep_to) {
+    timespec ts;
+    ts.tv_sec = static_cast<time_t>(sleep_to / 1000000000);
+    ts.tv_nsec = static_cast<long>(sleep_to % 1000000000);
+    while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) == EINTR) {
+    }
+  }
+  while (spin_ns > 0 && MonotonicNs() < ns) GS_SPIN_PAUSE();
+}
+
+}  // namespace gs::app

@@ -1,0 +1,56 @@
+// Pacing of the fixed-rate simulation loop (live, bench realtime): what the
+// operating system is asked for so that a step wakes on time, and the wait
+// itself.
+//
+// A 1 kHz loop whose step takes 0.1 ms still misses deadlines when the thread
+// wakes late: under normal scheduling (SCHED_OTHER) a runnable render or
+// compiler thread, the timer slack (50 µs by default) and page faults each
+// delay the wake-up. EnterRealtime asks, for the calling thread only:
+//   - SCHED_FIFO at `priority` (needs CAP_SYS_NICE or an RLIMIT_RTPRIO grant;
+//     the kernel still keeps 5% of each second for other tasks), so that no
+//     normal thread delays its wake-up;
+//   - a timer slack of 1 ns;
+//   - mlockall of the pages mapped now and later (needs CAP_IPC_LOCK or an
+//     unlimited RLIMIT_MEMLOCK: with a finite limit MCL_FUTURE could make a
+//     later allocation fail, so only the current pages are locked then).
+// What is refused is said in `refused`; the loop then runs with what it got.
+// Threads started afterwards by this thread inherit its policy, so start the
+// render thread first (FrameRecorder::Start) or give it its own.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+namespace gs::app {
+
+struct PacingOptions {
+  int priority = 0;       ///< SCHED_FIFO priority 1..99 for the simulation thread; 0: normal scheduling
+  bool lock_memory = true;  ///< with priority > 0: mlockall
+  int64_t spin_ns = 0;    ///< busy-wait the last spin_ns before each deadline instead of sleeping through it
+  int cpu = -1;           ///< pin the simulation thread to this core (-1: anywhere; ignored on a 1-core machine)
+};
+
+struct PacingGrant {
+  bool fifo = false;           ///< SCHED_FIFO granted
+  int priority = 0;
+  bool memory_locked = false;  ///< current (and, where allowed, future) pages locked
+  int cpu = -1;                ///< the core the thread was pinned to
+  std::string refused;         ///< what the OS refused and why ("" when everything asked was granted)
+  /// "SCHED_FIFO 50, memory locked" / "normal scheduling" etc.
+  std::string Describe() const;
+};
+
+/// Applies `opt` to the calling thread (see above).
+PacingGrant EnterRealtime(const PacingOptions& opt);
+
+/// Back to normal scheduling for the calling thread (memory stays locked until exit).
+void LeaveRealtime();
+
+/// CLOCK_MONOTONIC in nanoseconds.
+int64_t MonotonicNs();
+
+/// Sleeps until the absolute CLOCK_MONOTONIC time `ns`, the last `spin_ns` of it
+/// busy-waiting (0: sleeps all the way). Returns at once when `ns` has passed.
+void WaitUntilNs(int64_t ns, int64_t spin_ns = 0);
+
+}  // namespace gs::app
