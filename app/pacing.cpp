@@ -41,6 +41,12 @@ PacingGrant EnterRealtime(const PacingOptions& opt) {
       g.refused = "pinning to core " + std::to_string(opt.cpu) + " refused (" + std::strerror(rc) + ")";
   }
   if (opt.priority <= 0) return g;
+  if (cpus < 2) {
+    // a real-time loop that falls behind would starve the receiver and the
+    // publisher of the only core
+    g.refused = "SCHED_FIFO not asked on a one-core machine";
+    return g;
+  }
   // 1 ns of timer slack: the wake-up is not deferred to batch it with others
   prctl(PR_SET_TIMERSLACK, 1UL, 0UL, 0UL, 0UL);
   sched_param sp{};

@@ -14,6 +14,8 @@
 //     unlimited RLIMIT_MEMLOCK: with a finite limit MCL_FUTURE could make a
 //     later allocation fail, so only the current pages are locked then).
 // What is refused is said in `refused`; the loop then runs with what it got.
+// On a one-core machine none of it is asked: a real-time loop falling behind
+// would starve the receiver and publisher threads of the only core.
 // Threads started afterwards by this thread inherit its policy, so start the
 // render thread first (FrameRecorder::Start) or give it its own.
 #pragma once
