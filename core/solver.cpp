@@ -33,10 +33,10 @@ class WorldDelassus {
     for (const ContactSide& s : row.side) {
       if (s.articulation >= 0) u += s.h * w_.articulations[s.articulation].dq;
       if (s.count > 0) {
-        const Body& b = w_.bodies[s.body];
-        Vec3 d = Vec3::Zero();
-        for (int k = 0; k < s.count; ++k) d += s.w[k] * b.u_acc[s.idx[k]];
-        u += s.sign * (row.frame * b.pose.Rotate(d));
+        const Vec3* ua = w_.bodies[s.body].u_acc.data();
+        Vec3 d = s.w[0] * ua[s.idx[0]];
+        for (int k = 1; k < s.count; ++k) d += s.w[k] * ua[s.idx[k]];
+        u += s.m * d;
       }
     }
     return u;
@@ -45,14 +45,11 @@ class WorldDelassus {
   void ApplyDelta(int c, const Vec3& dr) {
     const ContactRow& row = w_.rows[c];
     for (const ContactSide& s : row.side) {
-      if (s.articulation >= 0) {
-        Articulation& a = w_.articulations[s.articulation];
-        a.dq += a.a_inv * (s.h.transpose() * dr);
-      }
+      if (s.articulation >= 0) w_.articulations[s.articulation].dq += s.g * dr;
       if (s.inf_count > 0) {
         Body& b = w_.bodies[s.body];
         // the force on this body, in its rest frame, over the control points it moves
-        const Vec3 f = b.pose.RotateInverse(s.sign * (row.frame.transpose() * dr));
+        const Vec3 f = s.m.transpose() * dr;
         const int* idx = w_.side_inf_idx.data() + s.inf_begin;
         const double* phi = w_.side_inf_phi.data() + s.inf_begin;
         Vec3* u = b.u_acc.data();
@@ -70,10 +67,10 @@ class WorldDelassus {
     for (const ContactSide& s : row.side) {
       if (s.articulation >= 0) u += s.h.row(0).dot(w_.articulations[s.articulation].dq);
       if (s.count > 0) {
-        const Body& b = w_.bodies[s.body];
-        Vec3 d = Vec3::Zero();
-        for (int k = 0; k < s.count; ++k) d += s.w[k] * b.u_acc[s.idx[k]];
-        u += s.sign * row.frame.row(0).dot(b.pose.Rotate(d));
+        const Vec3* ua = w_.bodies[s.body].u_acc.data();
+        Vec3 d = s.w[0] * ua[s.idx[0]];
+        for (int k = 1; k < s.count; ++k) d += s.w[k] * ua[s.idx[k]];
+        u += s.m.row(0).dot(d);
       }
     }
     return u;
@@ -82,13 +79,10 @@ class WorldDelassus {
   void ApplyNormalDelta(int c, double dr) {
     const ContactRow& row = w_.rows[c];
     for (const ContactSide& s : row.side) {
-      if (s.articulation >= 0) {
-        Articulation& a = w_.articulations[s.articulation];
-        a.dq += a.a_inv * (s.h.row(0).transpose() * dr);
-      }
+      if (s.articulation >= 0) w_.articulations[s.articulation].dq += s.g.col(0) * dr;
       if (s.inf_count > 0) {
         Body& b = w_.bodies[s.body];
-        const Vec3 f = b.pose.RotateInverse((s.sign * dr) * row.frame.row(0).transpose());
+        const Vec3 f = s.m.row(0).transpose() * dr;
         const int* idx = w_.side_inf_idx.data() + s.inf_begin;
         const double* phi = w_.side_inf_phi.data() + s.inf_begin;
         Vec3* u = b.u_acc.data();
