@@ -212,11 +212,13 @@ bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::str
   stats->latency_us.clear();
   stats->latency_steps.reserve(200000);
   stats->latency_us.reserve(200000);
+  // memory is locked before the clock starts: it takes a while in a large process
+  const PacingGrant locked = LockMemory(opt.pacing);
   const int64_t start_ns = SteadyNanoseconds() + 2 * period_ns;
   if (frames && !frames->active()) frames = nullptr;
   std::thread sim_thread([&] {
     // this thread alone: the receiver and render threads keep normal scheduling
-    stats->pacing = EnterRealtime(opt.pacing);
+    stats->pacing = EnterRealtime(opt.pacing, &locked);
     tracking::TargetSample s;
     char tracker_text[160] = "";
     int64_t k = 0;          // step index on the schedule

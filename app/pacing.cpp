@@ -27,7 +27,42 @@ std::string PacingGrant::Describe() const {
   return s;
 }
 
-PacingGrant EnterRealtime(const PacingOptions& opt) {
+namespace {
+
+// SCHED_FIFO is asked only with a priority and a second core: a real-time loop
+// that falls behind would starve the receiver and the publisher of the only core
+bool AsksRealtime(const PacingOptions& opt) { return opt.priority > 0 && sysconf(_SC_NPROCESSORS_ONLN) >= 2; }
+
+void Append(std::string* to, const std::string& what) {
+  if (what.empty()) return;
+  if (!to->empty()) *to += "; ";
+  *to += what;
+}
+
+}  // namespace
+
+PacingGrant LockMemory(const PacingOptions& opt) {
+  PacingGrant g;
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+  // a sanitizer's shadow memory is terabytes of reserved address space: not locked
+  const bool lock = false;
+#else
+  const bool lock = opt.lock_memory && AsksRealtime(opt);
+#endif
+  if (!lock) return g;
+  rlimit lim{};
+  const bool unlimited = geteuid() == 0 || (getrlimit(RLIMIT_MEMLOCK, &lim) == 0 && lim.rlim_cur == RLIM_INFINITY);
+  const int flags = unlimited ? (MCL_CURRENT | MCL_FUTURE) : MCL_CURRENT;
+  if (mlockall(flags) == 0) {
+    g.memory_locked = true;
+  } else {
+    const int e = errno;
+    g.refused = std::string("mlockall refused (") + std::strerror(e) + "; needs CAP_IPC_LOCK or a memlock limit)";
+  }
+  return g;
+}
+
+PacingGrant EnterRealtime(const PacingOptions& opt, const PacingGrant* locked) {
   PacingGrant g;
   const long cpus = sysconf(_SC_NPROCESSORS_ONLN);
   if (opt.cpu >= 0 && cpus > 1 && opt.cpu < cpus && opt.cpu < CPU_SETSIZE) {
@@ -41,10 +76,8 @@ PacingGrant EnterRealtime(const PacingOptions& opt) {
       g.refused = "pinning to core " + std::to_string(opt.cpu) + " refused (" + std::strerror(rc) + ")";
   }
   if (opt.priority <= 0) return g;
-  if (cpus < 2) {
-    // a real-time loop that falls behind would starve the receiver and the
-    // publisher of the only core
-    g.refused = "SCHED_FIFO not asked on a one-core machine";
+  if (!AsksRealtime(opt)) {
+    Append(&g.refused, "SCHED_FIFO not asked on a one-core machine");
     return g;
   }
   // 1 ns of timer slack: the wake-up is not deferred to batch it with others
@@ -56,29 +89,13 @@ PacingGrant EnterRealtime(const PacingOptions& opt) {
     g.fifo = true;
     g.priority = opt.priority;
   } else {
-    if (!g.refused.empty()) g.refused += "; ";
-    g.refused += std::string("SCHED_FIFO ") + std::to_string(opt.priority) + " refused (" + std::strerror(rc) +
-                "; needs CAP_SYS_NICE or an rtprio limit, e.g. in /etc/security/limits.conf)";
+    Append(&g.refused, std::string("SCHED_FIFO ") + std::to_string(opt.priority) + " refused (" +
+                           std::strerror(rc) + "; needs CAP_SYS_NICE or an rtprio limit, e.g. in "
+                           "/etc/security/limits.conf)");
   }
-#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
-  // a sanitizer's shadow memory is terabytes of reserved address space: not locked
-  const bool lock = false;
-#else
-  const bool lock = opt.lock_memory;
-#endif
-  if (lock) {
-    rlimit lim{};
-    const bool unlimited =
-        geteuid() == 0 || (getrlimit(RLIMIT_MEMLOCK, &lim) == 0 && lim.rlim_cur == RLIM_INFINITY);
-    const int flags = unlimited ? (MCL_CURRENT | MCL_FUTURE) : MCL_CURRENT;
-    if (mlockall(flags) == 0) {
-      g.memory_locked = true;
-    } else {
-      const int e = errno;
-      if (!g.refused.empty()) g.refused += "; ";
-      g.refused += std::string("mlockall refused (") + std::strerror(e) + "; needs CAP_IPC_LOCK or a memlock limit)";
-    }
-  }
+  const PacingGrant mem = locked ? *locked : LockMemory(opt);
+  g.memory_locked = mem.memory_locked;
+  Append(&g.refused, mem.refused);
   return g;
 }
 

@@ -42,8 +42,15 @@ struct PacingGrant {
   std::string Describe() const;
 };
 
-/// Applies `opt` to the calling thread (see above).
-PacingGrant EnterRealtime(const PacingOptions& opt);
+/// The process-wide part of `opt`: mlockall, when EnterRealtime would ask for it
+/// (a priority, a second core, no sanitizer). Locking a large process takes a
+/// while (hundreds of ms): call it before the loop's clock starts and hand the
+/// result to EnterRealtime.
+PacingGrant LockMemory(const PacingOptions& opt);
+
+/// Applies `opt` to the calling thread (see above). `locked`: what LockMemory
+/// already did (null: locks here).
+PacingGrant EnterRealtime(const PacingOptions& opt, const PacingGrant* locked = nullptr);
 
 /// Back to normal scheduling for the calling thread (memory stays locked until exit).
 void LeaveRealtime();
