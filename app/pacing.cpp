@@ -74,6 +74,9 @@ PacingGrant EnterRealtime(const PacingOptions& opt, const PacingGrant* locked) {
       g.cpu = opt.cpu;
     else
       g.refused = "pinning to core " + std::to_string(opt.cpu) + " refused (" + std::strerror(rc) + ")";
+  } else if (opt.cpu >= 0 && cpus > 1) {
+    g.refused = "core " + std::to_string(opt.cpu) + " does not exist (" + std::to_string(cpus) +
+                " online, 0 to " + std::to_string(cpus - 1) + "): not pinned";
   }
   if (opt.priority <= 0) return g;
   if (!AsksRealtime(opt)) {

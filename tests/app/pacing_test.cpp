@@ -1,0 +1,96 @@
+// app/pacing.*: what the simulation loop asks of the OS is granted or said,
+// never dropped in silence, and the wait ends at its deadline. Each case runs on
+// a thread of its own so that the test process keeps normal scheduling.
+#include "app/pacing.h"
+
+#include <gtest/gtest.h>
+#include <pthread.h>
+#include <sched.h>
+#include <unistd.h>
+
+#include <thread>
+
+namespace gs::app {
+namespace {
+
+struct Seen {
+  PacingGrant grant;
+  int policy = -1;
+  int cpus_allowed = 0;
+  bool on_cpu0_only = false;
+};
+
+Seen EnterOnAThread(const PacingOptions& opt) {
+  Seen s;
+  std::thread t([&] {
+    s.grant = EnterRealtime(opt);
+    sched_param sp{};
+    pthread_getschedparam(pthread_self(), &s.policy, &sp);
+    cpu_set_t set;
+    CPU_ZERO(&set);
+    pthread_getaffinity_np(pthread_self(), sizeof set, &set);
+    s.cpus_allowed = CPU_COUNT(&set);
+    s.on_cpu0_only = s.cpus_allowed == 1 && CPU_ISSET(0, &set);
+    LeaveRealtime();
+  });
+  t.join();
+  return s;
+}
+
+TEST(Pacing, NoPriorityKeepsNormalScheduling) {
+  PacingOptions o;
+  o.priority = 0;
+  const Seen s = EnterOnAThread(o);
+  EXPECT_FALSE(s.grant.fifo);
+  EXPECT_EQ(s.policy, SCHED_OTHER);
+  EXPECT_FALSE(s.grant.memory_locked);
+  EXPECT_EQ(s.grant.Describe(), "normal scheduling");
+  EXPECT_TRUE(s.grant.refused.empty()) << s.grant.refused;
+}
+
+TEST(Pacing, FifoIsGrantedOrTheRefusalSaysWhy) {
+  if (sysconf(_SC_NPROCESSORS_ONLN) < 2) GTEST_SKIP() << "one core: SCHED_FIFO is not asked";
+  PacingOptions o;
+  o.priority = 10;
+  o.lock_memory = false;
+  const Seen s = EnterOnAThread(o);
+  if (s.grant.fifo) {
+    EXPECT_EQ(s.policy, SCHED_FIFO);
+    EXPECT_EQ(s.grant.priority, 10);
+    EXPECT_NE(s.grant.Describe().find("SCHED_FIFO 10"), std::string::npos);
+  } else {
+    EXPECT_EQ(s.policy, SCHED_OTHER);
+    EXPECT_NE(s.grant.refused.find("SCHED_FIFO 10 refused"), std::string::npos) << s.grant.refused;
+  }
+}
+
+TEST(Pacing, PinsToAnExistingCoreAndSaysSoOfOneThatIsNot) {
+  if (sysconf(_SC_NPROCESSORS_ONLN) < 2) GTEST_SKIP() << "one core: nothing to pin to";
+  PacingOptions o;
+  o.cpu = 0;
+  const Seen pinned = EnterOnAThread(o);
+  EXPECT_EQ(pinned.grant.cpu, 0);
+  EXPECT_TRUE(pinned.on_cpu0_only) << pinned.cpus_allowed << " cores allowed";
+  EXPECT_NE(pinned.grant.Describe().find("core 0"), std::string::npos);
+
+  o.cpu = 1023;
+  const Seen none = EnterOnAThread(o);
+  EXPECT_EQ(none.grant.cpu, -1);
+  EXPECT_GT(none.cpus_allowed, 1);
+  EXPECT_NE(none.grant.refused.find("core 1023 does not exist"), std::string::npos) << none.grant.refused;
+}
+
+TEST(Pacing, WaitEndsAtItsDeadlineAndReturnsAtOnceWhenItHasPassed) {
+  for (int64_t spin : {int64_t{0}, int64_t{200000}}) {
+    const int64_t deadline = MonotonicNs() + 2000000;  // 2 ms
+    WaitUntilNs(deadline, spin);
+    EXPECT_GE(MonotonicNs(), deadline) << "spin " << spin;
+  }
+  const int64_t before = MonotonicNs();
+  WaitUntilNs(before - 1000000000, 0);  // a second ago
+  // no sleep: far less than a second (a generous bound, not a timing figure)
+  EXPECT_LT(MonotonicNs() - before, 500000000);
+}
+
+}  // namespace
+}  // namespace gs::app
