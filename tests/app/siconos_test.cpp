@@ -51,6 +51,7 @@ TEST(Siconos, SameErrorMeasureOnTheFclibSample) {
 
 TEST(Siconos, BenchSolverQuickPrintsItsHeadlineAndSolvesEverything) {
 #ifdef GRASPSIM_SANITIZED
+  // skipped under sanitizers only (a benchmark run); the release suite runs it
   GTEST_SKIP() << "a benchmark run (about a minute under sanitizers); the release build runs it";
 #endif
   const std::string out = std::string(::testing::TempDir()) + "/bench_solver.json";

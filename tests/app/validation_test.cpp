@@ -51,6 +51,7 @@ TEST(Validation, HertzExponentAndContactRadius) {
 
 TEST(Validation, PinchHoldsJustAboveAndFallsJustBelowTheFrictionThreshold) {
 #ifdef GRASPSIM_SANITIZED
+  // skipped under sanitizers only (too slow there); the release suite runs it
   GTEST_SKIP() << "two 2.2 s simulations of a 8,000-point prism (about a minute or more under sanitizers); "
                   "the release build runs it, and ContactModel tests cover the mechanics under sanitizers";
 #endif
@@ -66,6 +67,7 @@ TEST(Validation, PinchHoldsJustAboveAndFallsJustBelowTheFrictionThreshold) {
 
 TEST(Validation, PaperGraspHoldsTheBox) {
 #ifdef GRASPSIM_SANITIZED
+  // skipped under sanitizers only (minutes there); the release suite runs it
   GTEST_SKIP() << "1,900 steps of the 36,000-point paper scene (minutes under sanitizers); the release build runs it";
 #endif
   const auto v = ValidatePaperGrasp(Quick());
