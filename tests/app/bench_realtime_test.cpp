@@ -11,35 +11,16 @@
 #include <string>
 #include <vector>
 
+#include "json_lines.h"
+
 namespace {
 
-std::vector<std::string> RunLines(const std::string& args, const std::string& file) {
-  const std::string out = std::string(::testing::TempDir()) + "/" + file;
-  const std::string cmd = std::string(GRASPSIM_BINARY) + " " + args + " > " + out;
-  EXPECT_EQ(std::system(cmd.c_str()), 0) << cmd;
-  std::vector<std::string> lines;
-  FILE* f = std::fopen(out.c_str(), "r");
-  if (!f) return lines;
-  char buf[8192];
-  while (std::fgets(buf, sizeof buf, f)) {
-    std::string l = buf;
-    while (!l.empty() && (l.back() == '\n' || l.back() == '\r')) l.pop_back();
-    if (!l.empty()) lines.push_back(l);
-  }
-  std::fclose(f);
-  return lines;
-}
-
-double Field(const std::string& line, const std::string& key) {
-  const std::string k = "\"" + key + "\":";
-  const size_t at = line.find(k);
-  if (at == std::string::npos) return NAN;
-  return std::strtod(line.c_str() + at + k.size(), nullptr);
-}
+using gs::test::JsonField;
+using gs::test::RunJsonLines;
 
 TEST(BenchRealtime, TwoSecondsGiveConsistentCounts) {
   const std::vector<std::string> lines =
-      RunLines("bench realtime --seconds 2 --json --scene " + std::string(GRASPSIM_SOURCE_DIR) +
+      RunJsonLines("bench realtime --seconds 2 --json --scene " + std::string(GRASPSIM_SOURCE_DIR) +
                    "/config/tracked_hand.yaml",
                "bench_realtime.json");
   ASSERT_EQ(lines.size(), 4u);  // without rendering, with rendering, empty loop, headline
@@ -49,40 +30,40 @@ TEST(BenchRealtime, TwoSecondsGiveConsistentCounts) {
   const std::string& empty = lines[2];
   const std::string& last = lines[3];
   EXPECT_NE(empty.find("\"empty_loop\":true"), std::string::npos) << empty;
-  EXPECT_NEAR(Field(empty, "steps"), 2000, 1) << empty;
-  EXPECT_GE(Field(empty, "missed_deadlines"), 0) << empty;
-  EXPECT_LE(Field(empty, "missed_deadlines"), Field(empty, "steps")) << empty;
-  EXPECT_LE(Field(empty, "late_runs"), Field(empty, "missed_deadlines")) << empty;
-  EXPECT_GE(Field(empty, "wake_ms_max"), Field(empty, "wake_ms_p99")) << empty;
-  EXPECT_EQ(Field(last, "empty_loop_missed_deadlines"), Field(empty, "missed_deadlines"));
+  EXPECT_NEAR(JsonField(empty, "steps"), 2000, 1) << empty;
+  EXPECT_GE(JsonField(empty, "missed_deadlines"), 0) << empty;
+  EXPECT_LE(JsonField(empty, "missed_deadlines"), JsonField(empty, "steps")) << empty;
+  EXPECT_LE(JsonField(empty, "late_runs"), JsonField(empty, "missed_deadlines")) << empty;
+  EXPECT_GE(JsonField(empty, "wake_ms_max"), JsonField(empty, "wake_ms_p99")) << empty;
+  EXPECT_EQ(JsonField(last, "empty_loop_missed_deadlines"), JsonField(empty, "missed_deadlines"));
   // the pacing granted is said, whatever it was
   EXPECT_NE(last.find("\"pacing\":\""), std::string::npos) << last;
   EXPECT_NE(without.find("\"rendering\":false"), std::string::npos) << without;
   EXPECT_NE(with.find("\"rendering\":true"), std::string::npos) << with;
   for (const std::string* l : {&without, &with, &last}) {
-    EXPECT_NEAR(Field(*l, "steps"), 2000, 1) << *l;
-    EXPECT_LE(Field(*l, "late_runs"), Field(*l, "missed_deadlines")) << *l;
-    EXPECT_GE(Field(*l, "missed_deadlines"), 0) << *l;
-    EXPECT_LE(Field(*l, "missed_deadlines"), Field(*l, "steps")) << *l;
-    EXPECT_GT(Field(*l, "step_ms_median"), 0) << *l;
+    EXPECT_NEAR(JsonField(*l, "steps"), 2000, 1) << *l;
+    EXPECT_LE(JsonField(*l, "late_runs"), JsonField(*l, "missed_deadlines")) << *l;
+    EXPECT_GE(JsonField(*l, "missed_deadlines"), 0) << *l;
+    EXPECT_LE(JsonField(*l, "missed_deadlines"), JsonField(*l, "steps")) << *l;
+    EXPECT_GT(JsonField(*l, "step_ms_median"), 0) << *l;
   }
   // the session: 100 Hz over 2 s, every datagram applied
-  EXPECT_NEAR(Field(with, "datagrams"), 200, 1);
-  EXPECT_EQ(Field(with, "datagrams"), Field(without, "datagrams"));
+  EXPECT_NEAR(JsonField(with, "datagrams"), 200, 1);
+  EXPECT_EQ(JsonField(with, "datagrams"), JsonField(without, "datagrams"));
   // frame k at k/30 s: 61 frame times, each drawn or dropped; none without rendering
-  EXPECT_NEAR(Field(with, "frames_taken"), 61, 1);
-  EXPECT_EQ(Field(with, "frames") + Field(with, "frames_dropped"), Field(with, "frames_taken"));
-  EXPECT_GT(Field(with, "frames"), 0);
-  EXPECT_EQ(Field(without, "frames_taken"), 0);
-  EXPECT_EQ(Field(without, "frames"), 0);
+  EXPECT_NEAR(JsonField(with, "frames_taken"), 61, 1);
+  EXPECT_EQ(JsonField(with, "frames") + JsonField(with, "frames_dropped"), JsonField(with, "frames_taken"));
+  EXPECT_GT(JsonField(with, "frames"), 0);
+  EXPECT_EQ(JsonField(without, "frames_taken"), 0);
+  EXPECT_EQ(JsonField(without, "frames"), 0);
   // the replay is deterministic in simulated time: the grasp happens in both
-  EXPECT_GT(Field(with, "max_contacts"), 0);
-  EXPECT_EQ(Field(with, "max_contacts"), Field(without, "max_contacts"));
-  EXPECT_EQ(Field(with, "lifts"), Field(without, "lifts"));
+  EXPECT_GT(JsonField(with, "max_contacts"), 0);
+  EXPECT_EQ(JsonField(with, "max_contacts"), JsonField(without, "max_contacts"));
+  EXPECT_EQ(JsonField(with, "lifts"), JsonField(without, "lifts"));
   // the headline repeats the rendering run and puts the other beside it
-  EXPECT_EQ(Field(last, "missed_deadlines"), Field(with, "missed_deadlines"));
-  EXPECT_EQ(Field(last, "frames"), Field(with, "frames"));
-  EXPECT_EQ(Field(last, "no_render_missed_deadlines"), Field(without, "missed_deadlines"));
+  EXPECT_EQ(JsonField(last, "missed_deadlines"), JsonField(with, "missed_deadlines"));
+  EXPECT_EQ(JsonField(last, "frames"), JsonField(with, "frames"));
+  EXPECT_EQ(JsonField(last, "no_render_missed_deadlines"), JsonField(without, "missed_deadlines"));
   EXPECT_NE(last.find("\"target_met\""), std::string::npos) << last;
 }
 

@@ -10,45 +10,25 @@
 #include <string>
 #include <vector>
 
+#include "json_lines.h"
+
 namespace {
 
-std::vector<std::string> RunLines(const std::string& args, const std::string& file) {
-  const std::string out = std::string(::testing::TempDir()) + "/" + file;
-  const std::string cmd = std::string(GRASPSIM_BINARY) + " " + args + " > " + out;
-  EXPECT_EQ(std::system(cmd.c_str()), 0) << cmd;
-  std::vector<std::string> lines;
-  FILE* f = std::fopen(out.c_str(), "r");
-  if (!f) return lines;
-  char buf[8192];
-  while (std::fgets(buf, sizeof buf, f)) {
-    std::string l = buf;
-    while (!l.empty() && (l.back() == '\n' || l.back() == '\r')) l.pop_back();
-    if (!l.empty()) lines.push_back(l);
-  }
-  std::fclose(f);
-  return lines;
-}
-
-// the number after "key": in a flat JSON line, NaN when absent
-double Field(const std::string& line, const std::string& key) {
-  const std::string k = "\"" + key + "\":";
-  const size_t at = line.find(k);
-  if (at == std::string::npos) return NAN;
-  return std::strtod(line.c_str() + at + k.size(), nullptr);
-}
+using gs::test::JsonField;
+using gs::test::RunJsonLines;
 
 TEST(BenchScaling, QuickSeriesAndFittedSlopes) {
-  const std::vector<std::string> lines = RunLines("bench scaling --quick --json", "bench_scaling.json");
+  const std::vector<std::string> lines = RunJsonLines("bench scaling --quick --json", "bench_scaling.json");
   ASSERT_FALSE(lines.empty());
   std::vector<double> contacts, point_contacts, points;
   for (const std::string& l : lines) {
     if (l.find("\"series\":\"contacts\"") != std::string::npos) {
-      contacts.push_back(Field(l, "contacts"));
-      EXPECT_GT(Field(l, "step_ms"), 0.0) << l;
+      contacts.push_back(JsonField(l, "contacts"));
+      EXPECT_GT(JsonField(l, "step_ms"), 0.0) << l;
     } else if (l.find("\"series\":\"points\"") != std::string::npos) {
-      point_contacts.push_back(Field(l, "contacts"));
-      points.push_back(Field(l, "points"));
-      EXPECT_GT(Field(l, "step_ms"), 0.0) << l;
+      point_contacts.push_back(JsonField(l, "contacts"));
+      points.push_back(JsonField(l, "points"));
+      EXPECT_GT(JsonField(l, "step_ms"), 0.0) << l;
     }
   }
   ASSERT_GE(contacts.size(), 3u);
@@ -66,9 +46,9 @@ TEST(BenchScaling, QuickSeriesAndFittedSlopes) {
   EXPECT_GT(point_contacts[0], 10);
   const std::string& last = lines.back();
   EXPECT_NE(last.find("\"bench\":\"scaling\""), std::string::npos) << last;
-  EXPECT_TRUE(std::isfinite(Field(last, "loglog_slope_vs_contacts"))) << last;
-  EXPECT_TRUE(std::isfinite(Field(last, "step_ms_per_ln_points"))) << last;
-  EXPECT_TRUE(std::isfinite(Field(last, "loglog_slope_vs_points"))) << last;
+  EXPECT_TRUE(std::isfinite(JsonField(last, "loglog_slope_vs_contacts"))) << last;
+  EXPECT_TRUE(std::isfinite(JsonField(last, "step_ms_per_ln_points"))) << last;
+  EXPECT_TRUE(std::isfinite(JsonField(last, "loglog_slope_vs_points"))) << last;
 }
 
 }  // namespace
