@@ -9,6 +9,7 @@
 #include <cmath>
 
 #include "core/world.h"
+#include "soft_bodies.h"
 
 namespace gs {
 namespace {
@@ -21,30 +22,9 @@ void BallOnSoftBox(World& w, double anchor_tolerance, bool reuse = true) {
   w.params.solver.max_iterations = 300;
   w.params.reuse_contact_space = reuse;
   w.params.reuse_anchor_tolerance = anchor_tolerance;
-  BodySpec box;
-  box.name = "box";
-  box.shape.type = EShape::Box;
-  box.shape.half_extents = Vec3(0.03, 0.03, 0.01);
-  box.geometry.points = 6000;
-  box.geometry.control_points = 800;
-  box.motion = EMotion::Fixed;
-  box.deformation.model = EDeformation::Gaussian;
-  box.deformation.stiffness = 20000;
-  box.deformation.damping = 20;
-  box.deformation.influence_radius = 0.003;
-  ASSERT_GE(AddBody(w, box), 0);
-  BodySpec ball;
-  ball.name = "ball";
-  ball.shape.type = EShape::Sphere;
-  ball.shape.radius = 0.01;
-  ball.geometry.points = 1500;
-  ball.geometry.control_points = 200;
-  ball.mass = 0.05;
+  ASSERT_GE(AddBody(w, test::SoftSlab("box")), 0);
+  BodySpec ball = test::SoftBall();
   ball.pose = Pose::Translation(Vec3(0, 0, 0.0201));
-  ball.deformation.model = EDeformation::Gaussian;
-  ball.deformation.stiffness = 500;
-  ball.deformation.damping = 1;
-  ball.deformation.influence_radius = 0.003;
   ball.drive.enabled = true;  // no force unless a test sets one
   ASSERT_GE(AddBody(w, ball), 0);
   w.Finalize();

@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include "core/world.h"
+#include "soft_bodies.h"
 
 namespace gs {
 namespace {
@@ -18,32 +19,11 @@ void BallOnSlab(World& w) {
   w.params.dt = 1e-3;
   w.params.solver.tolerance = 1e-8;
   w.params.solver.max_iterations = 500;
-  BodySpec slab;
-  slab.name = "slab";
-  slab.shape.type = EShape::Box;
-  slab.shape.half_extents = Vec3(0.03, 0.03, 0.01);
-  slab.geometry.points = 6000;
-  slab.geometry.control_points = 800;
-  slab.motion = EMotion::Fixed;
-  slab.deformation.model = EDeformation::Gaussian;
-  slab.deformation.stiffness = 20000;
-  slab.deformation.damping = 20;
-  slab.deformation.influence_radius = 0.003;
-  ASSERT_GE(AddBody(w, slab), 0);
-  BodySpec ball;
-  ball.name = "ball";
-  ball.shape.type = EShape::Sphere;
-  ball.shape.radius = 0.01;
-  ball.geometry.points = 1500;
-  ball.geometry.control_points = 200;
-  ball.mass = 0.05;
+  ASSERT_GE(AddBody(w, test::SoftSlab("slab")), 0);
+  BodySpec ball = test::SoftBall();
   // turned, so that R is not the identity and a missing rotation shows
   ball.pose.R = Eigen::AngleAxisd(0.7, Vec3(1, 2, 3).normalized()).toRotationMatrix();
   ball.pose.t = Vec3(0, 0, 0.0199);
-  ball.deformation.model = EDeformation::Gaussian;
-  ball.deformation.stiffness = 500;
-  ball.deformation.damping = 1;
-  ball.deformation.influence_radius = 0.003;
   ASSERT_GE(AddBody(w, ball), 0);
   w.Finalize();
 }
