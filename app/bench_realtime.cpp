@@ -1,19 +1,22 @@
-// `graspsim bench realtime [--json] [--seconds S] [--scene FILE]`: the
-// performance target of issue 6. A tracked session of the paper's grasp (the
-// synthetic hand of `graspsim send --synthetic`: reach, close, lift, hold,
-// release, its 2.9 s cycle looped to S seconds at 100 Hz) is replayed at the
-// recorded pace: the replay's loop (cmd_replay.cpp: each datagram applies at
-// its arrival in simulated time, TrackedSim steps) paced on absolute deadlines
-// as in the live loop (live_loop.cpp: step k must end by start + (k+1) dt), with
-// the live render thread (FrameRecorder in ERecordMode::Live: a fixed pool of
-// snapshots, never waited for, nice 10, one llvmpipe thread) drawing 640x480 at
-// 30 frames per simulated second into a null sink. Then the same without
-// rendering. Reported per run: missed deadlines (steps that ended after their
-// deadline), how many runs of consecutive late steps they make, the steps late
-// by their own work (loop time over 1 ms), the worst lateness, the step's
-// median, p99 and max, frames drawn and dropped, the machine's load average. A late step is not skipped: the next starts at once (the replay
-// catches up), so a missed deadline delays but never drops simulated time.
-#include <time.h>
+// `graspsim bench realtime [--json] [--seconds S] [--scene FILE] [--rt-priority N]
+// [--cpu N] [--spin-us N]`: the performance target of issue 6. A tracked session
+// of the paper's grasp (config/tracked_paper_grasp.yaml by default; the synthetic
+// hand of `graspsim send --synthetic`: reach, close, lift, hold, release, its
+// 2.9 s cycle looped to S seconds at 100 Hz) is replayed at the recorded pace:
+// the replay's loop (cmd_replay.cpp: each datagram applies at its arrival in
+// simulated time, TrackedSim steps) paced on absolute deadlines as in the live
+// loop (live_loop.cpp and app/pacing.h: SCHED_FIFO on its own core; step k must
+// end by start + (k+1) dt), with the live render thread (FrameRecorder in
+// ERecordMode::Live: a fixed pool of snapshots, never waited for, nice 10, one
+// llvmpipe thread, on the other cores) drawing 640x480 at 30 frames per
+// simulated second into a null sink. Then the same without rendering, then an
+// empty loop paced the same way (the machine's own misses). Reported per run:
+// missed deadlines (steps that ended after their deadline), how many runs of
+// consecutive late steps they make, the steps late by their own work (loop time
+// over 1 ms), the worst lateness, the wake-up lateness, the step's median, p99
+// and max, frames drawn and dropped, the machine's load average. A late step is
+// not skipped: the next starts at once (the replay catches up), so a missed
+// deadline delays but never drops simulated time.
 
 #include <algorithm>
 #include <chrono>
