@@ -236,8 +236,12 @@ bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::str
       const int64_t end = SteadyNanoseconds();
       const int64_t deadline = anchor + (k + 1) * period_ns;
       if (fresh && stats->latency_us.size() < stats->latency_us.capacity()) {
-        // the step in progress when it arrived, and the one that applied it
-        const int64_t k_arrival = (s.arrival_ns - anchor) >= 0 ? (s.arrival_ns - anchor) / period_ns : -1;
+        // the step in progress when it arrived, and the one that applied it: the
+        // schedule's slot at its arrival, or, when the loop runs behind its
+        // schedule (catching up), the step then executing (k - 1); the slot alone
+        // would count steps not yet run and give a negative latency
+        const int64_t slot = (s.arrival_ns - anchor) >= 0 ? (s.arrival_ns - anchor) / period_ns : -1;
+        const int64_t k_arrival = std::min(slot, k - 1);
         stats->latency_steps.push_back(static_cast<int>(k - k_arrival));
         stats->latency_us.push_back(1e-3 * static_cast<double>(end - s.arrival_ns));
       }
