@@ -43,8 +43,19 @@ TEST(Live, ReceivesSendOnLoopbackAtTheRateSentAndHoldsItsRate) {
   // The loop paces itself at the scene's 1 kHz. This is a sanity bound, not a timing figure
   // (`graspsim bench tracking` and live's status report the rate and overruns): a loop that
   // lost its pacing, or ran unpaced, would land far outside it even on a loaded machine.
-  EXPECT_GT(JsonNumber(json, "sim_rate_hz"), 500.0) << r.output;
   EXPECT_LT(JsonNumber(json, "sim_rate_hz"), 1005.0) << r.output;
+  // every slot of the schedule is accounted for: run, or given up when the loop fell more
+  // than 50 ms behind (it may end up to 50 ms behind)
+  const double slots = 1000.0 * JsonNumber(json, "wall_s");
+  const double accounted = JsonNumber(json, "steps") + JsonNumber(json, "skipped_steps");
+  EXPECT_LE(accounted, slots + 2) << r.output;
+  EXPECT_GE(accounted, slots - 52) << r.output;
+#ifndef GRASPSIM_SANITIZED
+  EXPECT_GT(JsonNumber(json, "sim_rate_hz"), 500.0) << r.output;
+#else
+  // under ASan the grasp's steps take about 6 ms each (0.5 ms in release): the loop gives
+  // those slots up, as it should, and its rate says only how slow the instrumented build is
+#endif
   EXPECT_NE(json.find("\"lcm_ok\":true"), std::string::npos) << r.output;
 
   // what was published: poses and contacts at about 50 Hz each
