@@ -1,5 +1,5 @@
 // `graspsim bench realtime [--json] [--seconds S] [--scene FILE] [--rt-priority N]
-// [--cpu N] [--spin-us N]`: the performance target of issue 6. A tracked session
+// [--cpu N] [--spin-us N] [--step-budget F]`: the performance target of issue 6. A tracked session
 // of the paper's grasp (config/tracked_paper_grasp.yaml by default; the synthetic
 // hand of `graspsim send --synthetic`: reach, close, lift, hold, release, its
 // 2.9 s cycle looped to S seconds at 100 Hz) is replayed at the recorded pace:
@@ -16,7 +16,10 @@
 // over 1 ms), the worst lateness, the wake-up lateness, the step's median, p99
 // and max, frames drawn and dropped, the machine's load average. A late step is
 // not skipped: the next starts at once (the replay catches up), so a missed
-// deadline delays but never drops simulated time.
+// deadline delays but never drops simulated time. As in live, each step must end
+// F timesteps into its slot (default 0.8): the solver stops sweeping when the rest of
+// that would not hold another sweep; such steps are counted (budget stops) with
+// the largest solver error reached.
 
 #include <algorithm>
 #include <chrono>
@@ -90,12 +93,15 @@ struct RunResult {
   std::string refused;
   int frames_taken = 0, frames_drawn = 0, frames_dropped = 0;
   int max_contacts = 0;
+  int64_t unconverged = 0;      ///< steps whose solve did not reach the scene's tolerance
+  int64_t budget_stops = 0;     ///< of those, ended by the step budget
+  double residual_max = 0.0;    ///< largest solver error of a step
   int lifts = 0;                ///< cycles in which the box rose 2 cm above its start
   size_t datagrams = 0;
 };
 
 bool RunOnce(const std::string& scene, const Session& session, double seconds, bool render, const PacingOptions& po,
-             RunResult* out, std::string* error) {
+             double step_budget, RunResult* out, std::string* error) {
   auto sim = std::make_unique<TrackedSim>();
   if (!sim->Load(scene, error)) return false;
   World& w = sim->world();
@@ -139,7 +145,13 @@ bool RunOnce(const std::string& scene, const Session& session, double seconds, b
       sim->Push(sample);
       ++next;
     }
+    if (step_budget > 0.0)  // as in live: the step ends step_budget timesteps into its slot
+      w.params.step_time_budget_s =
+          std::max(1e-9, step_budget * dt - 1e-9 * static_cast<double>(begin - (start + k * period)));
     sim->Step();
+    out->unconverged += w.profile.converged ? 0 : 1;
+    out->budget_stops += w.profile.budget_stopped ? 1 : 0;
+    out->residual_max = std::max(out->residual_max, w.profile.residual);
     if (recorder.FrameDue(w)) sim->HudText(tracker_text, sizeof tracker_text);
     recorder.AfterStep(w, tracker_text);
     const int64_t end = MonotonicNs();
@@ -218,12 +230,14 @@ void PrintJson(const RunResult& r, double seconds) {
               "\"late_runs\":%lld,\"overlong_steps\":%lld,"
               "\"worst_lateness_ms\":%.4f,\"step_ms_median\":%.4f,\"step_ms_p99\":%.4f,\"step_ms_max\":%.4f,"
               "\"loop_ms_median\":%.4f,\"loop_ms_p99\":%.4f,\"wall_s\":%.3f,\"frames\":%d,\"frames_taken\":%d,"
-              "\"frames_dropped\":%d,\"max_contacts\":%d,\"lifts\":%d,\"datagrams\":%zu,"
+              "\"frames_dropped\":%d,\"max_contacts\":%d,\"unconverged_steps\":%lld,\"budget_stops\":%lld,"
+              "\"residual_max\":%.3g,\"lifts\":%d,\"datagrams\":%zu,"
               "\"wake_ms_p99\":%.4f,\"wake_ms_max\":%.4f,\"pacing\":\"%s\",\"pacing_refused\":\"%s\","
               "\"load_average_start\":%.2f,\"load_average_end\":%.2f}\n",
               r.render ? "true" : "false", seconds, static_cast<long long>(r.steps), static_cast<long long>(r.missed),
               static_cast<long long>(r.late_runs), static_cast<long long>(r.overlong), r.worst_late_ms, r.step_median_ms, r.step_p99_ms, r.step_max_ms, r.loop_median_ms, r.loop_p99_ms,
-              r.wall_s, r.frames_drawn, r.frames_taken, r.frames_dropped, r.max_contacts, r.lifts, r.datagrams, r.wake_p99_ms,
+              r.wall_s, r.frames_drawn, r.frames_taken, r.frames_dropped, r.max_contacts, static_cast<long long>(r.unconverged),
+              static_cast<long long>(r.budget_stops), r.residual_max, r.lifts, r.datagrams, r.wake_p99_ms,
               r.wake_max_ms, r.pacing.c_str(), r.refused.c_str(), r.load_start, r.load_end);
 }
 
@@ -244,8 +258,8 @@ int RunBenchRealtime(const BenchOptions& opt) {
   po.priority = opt.rt_priority;
   po.cpu = opt.cpu;
   po.spin_ns = static_cast<int64_t>(std::llround(opt.spin_us * 1e3));
-  if (!RunOnce(scene, session, seconds, true, po, &with, &error) ||
-      !RunOnce(scene, session, seconds, false, po, &without, &error)) {
+  if (!RunOnce(scene, session, seconds, true, po, opt.step_budget, &with, &error) ||
+      !RunOnce(scene, session, seconds, false, po, opt.step_budget, &without, &error)) {
     std::fprintf(stderr, "bench realtime: %s\n", error.c_str());
     return 3;
   }
@@ -262,13 +276,15 @@ int RunBenchRealtime(const BenchOptions& opt) {
                 "\"worst_lateness_ms\":%.4f,\"step_ms_median\":%.4f,\"step_ms_p99\":%.4f,\"frames\":%d,"
                 "\"frames_dropped\":%d,\"no_render_missed_deadlines\":%lld,\"no_render_worst_lateness_ms\":%.4f,"
                 "\"no_render_step_ms_median\":%.4f,\"empty_loop_missed_deadlines\":%lld,\"empty_loop_late_runs\":%lld,"
+                "\"unconverged_steps\":%lld,\"budget_stops\":%lld,\"step_budget\":%g,"
                 "\"pacing\":\"%s\",\"target_met\":%s}\n",
                 seconds, static_cast<long long>(with.steps), static_cast<long long>(with.missed),
                 static_cast<long long>(with.late_runs), static_cast<long long>(with.overlong), with.worst_late_ms,
                 with.step_median_ms, with.step_p99_ms, with.frames_drawn, with.frames_dropped,
                 static_cast<long long>(without.missed), without.worst_late_ms, without.step_median_ms,
-                static_cast<long long>(empty.missed), static_cast<long long>(empty.late_runs), with.pacing.c_str(),
-                with.missed == 0 && with.step_median_ms <= 1.0 ? "true" : "false");
+                static_cast<long long>(empty.missed), static_cast<long long>(empty.late_runs),
+                static_cast<long long>(with.unconverged), static_cast<long long>(with.budget_stops), opt.step_budget,
+                with.pacing.c_str(), with.missed == 0 && with.step_median_ms <= 1.0 ? "true" : "false");
     return 0;
   }
   std::printf("  %-18s %8s %8s %6s %8s %10s %9s %9s %9s %9s %9s %9s %8s %8s %8s\n", "", "steps", "missed", "runs", "overlong", "worst late", "step med",
@@ -286,6 +302,12 @@ int RunBenchRealtime(const BenchOptions& opt) {
   std::printf("  (empty loop: the same pacing with no step, the machine's own misses)\n");
   std::printf("  simulation thread: %s%s%s; spin %.0f us before each deadline\n", with.pacing.c_str(),
               with.refused.empty() ? "" : "; ", with.refused.c_str(), opt.spin_us);
+  for (const RunResult* r : {&with, &without})
+    std::printf("  %s: %lld steps unconverged, %lld of them stopped by the step budget (%g of a timestep into "
+                "the slot%s); largest solver error %.3g\n",
+                r->render ? "with rendering" : "without rendering", static_cast<long long>(r->unconverged),
+                static_cast<long long>(r->budget_stops), opt.step_budget,
+                opt.step_budget > 0 ? "" : ": no budget", r->residual_max);
   std::printf("  load average %.2f -> %.2f (rendering run), %.2f -> %.2f (without)\n", with.load_start, with.load_end,
               without.load_start, without.load_end);
   std::printf("  the box was lifted in %d of %d grasp cycles; target (no missed deadline, step median <= 1 ms): %s\n",

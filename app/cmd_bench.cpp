@@ -44,6 +44,10 @@ void AddBenchCommand(CLI::App& app, int* exit_code) {
       ->check(CLI::Range(0, 99));
   realtime->add_option("--spin-us", opt->spin_us, "busy-wait this long before each deadline instead of sleeping")
       ->check(CLI::Range(0.0, 1000.0));
+  realtime->add_option("--step-budget", opt->step_budget,
+                       "each step ends this fraction of the timestep into its slot: the solver stops sweeping "
+                       "early, counted as a budget stop (0: no limit; default 0.8, as live)")
+      ->check(CLI::Range(0.0, 10.0));
   realtime->add_option("--cpu", opt->cpu,
                        "the simulation loop's core; rendering runs on the others (-1: no pinning)")
       ->check(CLI::Range(-1, 1023));

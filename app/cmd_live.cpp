@@ -25,6 +25,7 @@ struct LiveCmd {
   RenderOptions render;  ///< --frames, --video, ... (docs/render.md)
   int rt_priority = 50;  ///< SCHED_FIFO priority of the simulation thread (0: normal)
   int cpu = 0;           ///< the simulation thread's core (-1: anywhere)
+  double step_budget = 0.8;  ///< a step ends this fraction of the timestep into its slot (0: no limit)
 };
 
 int Live(const LiveCmd& c) {
@@ -47,6 +48,7 @@ int Live(const LiveCmd& c) {
   o.quiet = c.quiet;
   o.pacing.priority = c.rt_priority;
   o.pacing.cpu = c.cpu;
+  o.step_budget = c.step_budget;
   const World& w = sim->world();
   char lcm[300];
   if (o.publish_rate > 0)
@@ -85,6 +87,9 @@ int Live(const LiveCmd& c) {
               st.wall_s, static_cast<long long>(st.steps), st.sim_rate_hz(), 1.0 / w.params.dt,
               static_cast<long long>(st.overruns), st.steps ? 100.0 * st.overruns / st.steps : 0.0,
               static_cast<long long>(st.skipped_steps), st.step_median_ms, st.step_p99_ms, st.step_max_ms);
+  std::printf("live: solver: %lld steps unconverged, %lld of them stopped by the step budget (%s); largest error %.3g\n",
+              static_cast<long long>(st.unconverged_steps), static_cast<long long>(st.budget_stops),
+              o.step_budget > 0 ? (std::to_string(o.step_budget) + " of a timestep").c_str() : "off", st.residual_max);
   std::printf("live: simulation thread: %s%s%s\n", st.pacing.Describe().c_str(), st.pacing.refused.empty() ? "" : "; ",
               st.pacing.refused.c_str());
   std::printf("live: tracker %.2f Hz received (%llu datagrams, %llu applied, the rest stale), parse errors %s, %llu "
@@ -103,7 +108,8 @@ int Live(const LiveCmd& c) {
               "\"datagrams\":%llu,\"tracker_hz\":%.4f,\"parse_errors\":%llu,\"rejected_senders\":%llu,"
               "\"silences\":%d,\"recoveries\":%d,\"rate_changes\":%d,\"garbage_bursts\":%d,\"floods\":%d,"
               "\"rejected_bursts\":%d,\"tracker_state\":\"%s\",\"published\":%llu,\"lcm_ok\":%s,"
-              "\"rendering\":%s,\"frames_drawn\":%lld,\"frames_dropped\":%lld,\"pacing\":\"%s\"}\n",
+              "\"rendering\":%s,\"frames_drawn\":%lld,\"frames_dropped\":%lld,\"pacing\":\"%s\","
+              "\"unconverged_steps\":%lld,\"budget_stops\":%lld,\"residual_max\":%.3g}\n",
               st.wall_s, static_cast<long long>(st.steps), st.sim_rate_hz(), 1.0 / w.params.dt,
               static_cast<long long>(st.overruns), static_cast<long long>(st.skipped_steps), st.step_median_ms,
               st.step_max_ms, static_cast<unsigned long long>(st.datagrams), st.tracker_hz,
@@ -111,7 +117,8 @@ int Live(const LiveCmd& c) {
               h.silences, h.recoveries, h.rate_changes, h.garbage_bursts, h.floods, h.rejected_bursts,
               st.tracker_state.c_str(), static_cast<unsigned long long>(st.published),
               st.lcm_ok ? "true" : "false", rendering ? "true" : "false", static_cast<long long>(st.frames_drawn),
-              static_cast<long long>(st.frames_dropped), st.pacing.Describe().c_str());
+              static_cast<long long>(st.frames_dropped), st.pacing.Describe().c_str(),
+              static_cast<long long>(st.unconverged_steps), static_cast<long long>(st.budget_stops), st.residual_max);
   return kExitOk;
 }
 
@@ -134,6 +141,11 @@ void AddLiveCommand(CLI::App& app, int* exit_code) {
                   "SCHED_FIFO priority of the simulation thread, 0 for normal scheduling (needs CAP_SYS_NICE; a "
                   "refusal is said and live goes on)")
       ->check(CLI::Range(0, 99))
+      ->capture_default_str();
+  cmd->add_option("--step-budget", c->step_budget,
+                  "each step ends this fraction of the timestep into its slot: the solver stops sweeping early, "
+                  "and the step is counted as a budget stop (0: no limit)")
+      ->check(CLI::Range(0.0, 10.0))
       ->capture_default_str();
   cmd->add_option("--cpu", c->cpu, "the simulation thread's core; rendering runs on the others (-1: anywhere)")
       ->check(CLI::Range(-1, 1023))

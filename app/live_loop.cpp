@@ -205,6 +205,9 @@ bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::str
   std::atomic<bool> stop{false};
   std::atomic<int64_t> steps{0}, overruns{0}, skipped{0}, applied{0};
   std::atomic<double> last_step_ms{0.0};
+  const int64_t budget_ns = static_cast<int64_t>(std::llround(opt.step_budget * dt * 1e9));
+  double residual_max = 0.0;  // simulation thread; read after it is joined
+  const int64_t unconverged_before = w.unconverged_steps, budget_before = w.budget_stopped_steps;
   std::vector<double> step_ms;
   const size_t max_records = 4000000;
   step_ms.reserve(std::min<size_t>(max_records, opt.duration > 0 ? static_cast<size_t>(opt.duration / dt) + 16 : max_records));
@@ -232,9 +235,14 @@ bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::str
         fresh = true;
         applied.fetch_add(1, std::memory_order_relaxed);
       }
+      const int64_t deadline = anchor + (k + 1) * period_ns;
+      if (budget_ns > 0) {
+        // the step must end budget_ns into its slot (late steps get what is left, at least one sweep)
+        w.params.step_time_budget_s = std::max(1e-9, 1e-9 * static_cast<double>(deadline - period_ns + budget_ns - begin));
+      }
       sim.Step();
       const int64_t end = SteadyNanoseconds();
-      const int64_t deadline = anchor + (k + 1) * period_ns;
+      residual_max = std::max(residual_max, w.profile.residual);
       if (fresh && stats->latency_us.size() < stats->latency_us.capacity()) {
         // the step in progress when it arrived, and the one that applied it: the
         // schedule's slot at its arrival, or, when the loop runs behind its
@@ -341,6 +349,10 @@ bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::str
   stats->steps = steps.load();
   stats->overruns = overruns.load();
   stats->skipped_steps = skipped.load();
+  stats->unconverged_steps = w.unconverged_steps - unconverged_before;
+  stats->budget_stops = w.budget_stopped_steps - budget_before;
+  stats->residual_max = residual_max;
+  w.params.step_time_budget_s = 0.0;
   stats->datagrams = datagrams.load();
   stats->samples_applied = static_cast<uint64_t>(applied.load());
   stats->parse = parser.stats();

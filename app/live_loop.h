@@ -31,6 +31,12 @@ struct LiveOptions {
   bool quiet = false;           ///< neither the status line nor tracker events
   double silent_after_s = 0.25; ///< no datagram this long: the tracker is reported silent
   PacingOptions pacing;         ///< the simulation thread's scheduling (app/pacing.h); default normal
+  /// A step must end this fraction of the timestep into its slot (0: no limit): the
+  /// solver stops sweeping when the rest would not hold another sweep
+  /// (WorldParams::step_time_budget_s), and the step counts as unconverged and as a
+  /// budget stop. When the loop runs behind its schedule the budget counts from the
+  /// slot's start, so a late step solves less (at least one sweep).
+  double step_budget = 0.0;
 };
 
 struct LiveStats {
@@ -57,6 +63,9 @@ struct LiveStats {
   /// because the render thread was behind (the simulation never waits for it)
   int64_t frames_drawn = 0, frames_dropped = 0;
   PacingGrant pacing;           ///< what the OS granted the simulation thread
+  int64_t unconverged_steps = 0;  ///< steps whose solve did not reach the scene's tolerance
+  int64_t budget_stops = 0;       ///< of those, steps ended by the step budget
+  double residual_max = 0.0;      ///< largest solver error of a step
   double sim_rate_hz() const { return wall_s > 0 ? static_cast<double>(steps) / wall_s : 0.0; }
 };
 

@@ -31,6 +31,7 @@
 #pragma once
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <vector>
 
@@ -47,6 +48,12 @@ struct NsgsParams {
   ESweepOrder order = ESweepOrder::Forward;
   int extrapolate_every = 0;        ///< K: sweeps between extrapolation trials (0: never)
   int extrapolate_after = 100;      ///< first trial after this many sweeps
+  /// Wall-clock budget of the solve (s; 0: none). The solver stops sweeping when one
+  /// more sweep and the exact error pass would not fit in it, runs that pass and
+  /// reports the error reached, with `budget_stopped` set (at least one sweep always
+  /// runs). For loops paced by the wall clock (live, bench realtime): a run with a
+  /// budget depends on the machine's speed, so run and replay never set one.
+  double time_budget_s = 0.0;
 };
 
 struct NsgsResult {
@@ -55,6 +62,24 @@ struct NsgsResult {
   bool converged = false;
   int exact_checks = 0;  ///< exact error passes
   int extrapolations = 0;  ///< extrapolation trials that won
+  bool budget_stopped = false;  ///< stopped by the time budget before the tolerance was met
+};
+
+/// The time budget of NsgsParams: the solve's start time and the rule that ends it.
+class NsgsBudget {
+ public:
+  explicit NsgsBudget(double budget_s) : budget_s_(budget_s), t0_(std::chrono::steady_clock::now()) {}
+  /// After `sweeps` sweeps: true when one more sweep and an exact error pass (about
+  /// one sweep's cost) would overrun the budget.
+  bool Exhausted(int sweeps) const {
+    if (budget_s_ <= 0.0 || sweeps <= 0) return false;
+    const double spent = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count();
+    return spent + 2.0 * spent / sweeps > budget_s_;
+  }
+
+ private:
+  double budget_s_;
+  std::chrono::steady_clock::time_point t0_;
 };
 
 struct NsgsScratch {
@@ -183,17 +208,23 @@ NsgsResult SolveNsgs(Op& op, Vec3* r, const NsgsParams& p, NsgsScratch& s) {
   const double omega = p.over_relaxation;
   const double nq = op.FreeNormSquared();
   const int K = p.extrapolate_every;
+  const NsgsBudget budget(p.time_budget_s);
   int sweep = 0;  // plain sweeps
   while (res.iterations < p.max_iterations) {
     const bool backward = p.order == ESweepOrder::Alternating && (sweep & 1);
     const double estimate = NsgsSweep(op, r, omega, backward, nq, s.angle.data());
     ++sweep;
     ++res.iterations;
-    if (estimate <= p.tolerance || res.iterations == p.max_iterations) {
+    const bool out_of_time = budget.Exhausted(res.iterations);
+    if (estimate <= p.tolerance || res.iterations == p.max_iterations || out_of_time) {
       res.error = SiconosError(op, r);
       ++res.exact_checks;
       if (res.error <= p.tolerance) {
         res.converged = true;
+        break;
+      }
+      if (out_of_time) {
+        res.budget_stopped = true;
         break;
       }
     }

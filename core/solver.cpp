@@ -112,6 +112,7 @@ NsgsResult SolveNormalsOnly(WorldDelassus& op, Vec3* r, const NsgsParams& p) {
   const int n = op.NumContacts();
   const double omega = p.over_relaxation;
   const double nq = op.FreeNormSquared();
+  const NsgsBudget budget(p.time_budget_s);
   for (int it = 0; it < p.max_iterations; ++it) {
     double num = 0.0, nu = 0.0, nr = 0.0;
     const bool backward = p.order == ESweepOrder::Alternating && (it & 1);
@@ -135,11 +136,16 @@ NsgsResult SolveNormalsOnly(WorldDelassus& op, Vec3* r, const NsgsParams& p) {
     res.iterations = it + 1;
     const double den = std::sqrt(std::max({nq, nr, nu}));
     const double estimate = den > 2.220446049250313e-16 ? std::sqrt(num) / den : std::sqrt(num);
-    if (estimate <= p.tolerance || it + 1 == p.max_iterations) {
+    const bool out_of_time = budget.Exhausted(it + 1);
+    if (estimate <= p.tolerance || it + 1 == p.max_iterations || out_of_time) {
       res.error = SiconosError(op, r);
       ++res.exact_checks;
       if (res.error <= p.tolerance) {
         res.converged = true;
+        break;
+      }
+      if (out_of_time) {
+        res.budget_stopped = true;
         break;
       }
     }
@@ -166,11 +172,19 @@ void SolveContacts(World& w) {
     op.ApplyDelta(c, w.rows[c].r);
   }
   if (n > 0) {
-    const NsgsResult res = frictionless ? SolveNormalsOnly(op, w.solve_r.data(), w.params.solver)
-                                        : SolveNsgs(op, w.solve_r.data(), w.params.solver, w.gs_scratch);
+    NsgsParams params = w.params.solver;
+    if (w.params.step_time_budget_s > 0.0) {
+      // what is left of the step's budget once the stages before have run, less what
+      // constrained motion took in the last step (at least one sweep always runs)
+      const double spent = std::chrono::duration<double>(t0 - w.step_started()).count();
+      params.time_budget_s = std::max(1e-9, w.params.step_time_budget_s - spent - w.last_constrained_motion_s());
+    }
+    const NsgsResult res = frictionless ? SolveNormalsOnly(op, w.solve_r.data(), params)
+                                        : SolveNsgs(op, w.solve_r.data(), params, w.gs_scratch);
     w.profile.iterations = res.iterations;
     w.profile.residual = res.error;
     w.profile.converged = res.converged;
+    w.profile.budget_stopped = res.budget_stopped;
     (frictionless ? w.profile.work.local_solves_normal : w.profile.work.local_solves_3d) += n * res.iterations;
   }
   w.profile.work.propagations += op.propagations();

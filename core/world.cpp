@@ -171,6 +171,7 @@ void World::Finalize() {
 void World::Step() {
   using Clock = std::chrono::steady_clock;
   const auto t0 = Clock::now();
+  step_started_ = t0;
   profile = StepProfile{};
   FreeMotion(*this);
   const auto t1 = Clock::now();
@@ -185,12 +186,14 @@ void World::Step() {
   const auto t3 = Clock::now();
   profile.free_motion = std::chrono::duration<double>(t1 - t0).count();
   profile.constrained_motion = std::chrono::duration<double>(t3 - t2).count();
+  last_constrained_motion_s_ = profile.constrained_motion;
   profile.total = std::chrono::duration<double>(t3 - t0).count();
   profile.contacts = static_cast<int>(rows.size());
   time += params.dt;
   ++step_count;
   if (profile.rejected) ++rejected_steps;
   if (!profile.converged) ++unconverged_steps;
+  if (profile.budget_stopped) ++budget_stopped_steps;
 }
 
 }  // namespace gs

@@ -18,6 +18,7 @@
 // points. All buffers are sized by Finalize(); Step() does not allocate.
 #pragma once
 
+#include <chrono>
 #include <string>
 
 #include "core/body_geometry.h"
@@ -196,6 +197,12 @@ struct WorldParams {
   /// Resting contacts drift by ~1e-9 m per step (paper grasp), far below the MLS
   /// projection's own tolerance (1e-3 bandwidth, ~3e-6 m). 0: bitwise-equal anchors only.
   double reuse_anchor_tolerance = 1e-4;
+  /// Wall-clock budget of a whole step (s; 0: none, the default). The solver then
+  /// stops sweeping when the rest of the budget would not hold another sweep (see
+  /// NsgsParams::time_budget_s); such a step counts as unconverged and as a budget
+  /// stop. Set by loops paced by the wall clock (live sets it per step from its
+  /// deadline); a step's result then depends on the machine's speed.
+  double step_time_budget_s = 0.0;
 };
 
 /// Work done by the last step, counted where it is done: what a scene does not
@@ -227,6 +234,7 @@ struct StepProfile {
   int iterations = 0;
   double residual = 0.0;
   bool converged = true;
+  bool budget_stopped = false;  ///< the solve ended at WorldParams::step_time_budget_s, unconverged
   bool rejected = false;  ///< the step produced a non-finite value and was undone
   const char* reject_reason = "";  ///< the first stage that saw a non-finite value (static text)
   CollisionStats collision;
@@ -246,6 +254,7 @@ class World {
   int64_t step_count = 0;
   int64_t rejected_steps = 0;
   int64_t unconverged_steps = 0;
+  int64_t budget_stopped_steps = 0;  ///< of the unconverged steps, those ended by the time budget
 
   /// Friction coefficient of a body pair (default unless set).
   double Friction(int a, int b) const;
@@ -258,8 +267,14 @@ class World {
   /// Wakes every sleeping body (call after changing a body's state by hand:
   /// its pose, velocity, shape; drive and gravity changes are noticed).
   void WakeAll();
+  /// When the step in progress started, and how long the last step's constrained
+  /// motion took (the solver's share of step_time_budget_s is computed from them).
+  std::chrono::steady_clock::time_point step_started() const { return step_started_; }
+  double last_constrained_motion_s() const { return last_constrained_motion_s_; }
 
   // internals shared by the stages
+  std::chrono::steady_clock::time_point step_started_{};
+  double last_constrained_motion_s_ = 0.0;
   std::vector<double> friction_;
   CollisionScratch collision_scratch;
   NsgsScratch gs_scratch;

@@ -84,6 +84,30 @@ TEST(Nsgs, IterationCapIsReportedNotHidden) {
   EXPECT_NEAR(res.nsgs.error, FcError(p, r), 1e-15);
 }
 
+TEST(Nsgs, TimeBudgetStopsSweepingAndReportsTheExactErrorReached) {
+  const FcProblem p = RandomRigidProblem(400, 4, 3);
+  FcSolveParams sp;
+  sp.nsgs.tolerance = 1e-10;
+  sp.nsgs.max_iterations = 5000;
+  Eigen::VectorXd r_free, r_budget, r_roomy;
+  const FcSolveResult free = SolveFcProblem(p, sp, &r_free);
+  ASSERT_GT(free.nsgs.iterations, 3);
+  // a budget already spent after the first sweep: one sweep, then the exact error of what it left
+  sp.nsgs.time_budget_s = 1e-9;
+  const FcSolveResult cut = SolveFcProblem(p, sp, &r_budget);
+  EXPECT_EQ(cut.nsgs.iterations, 1);
+  EXPECT_FALSE(cut.nsgs.converged);
+  EXPECT_TRUE(cut.nsgs.budget_stopped);
+  EXPECT_NEAR(cut.nsgs.error, FcError(p, r_budget), 1e-15);
+  EXPECT_GT(cut.nsgs.error, free.nsgs.error);
+  // a budget far beyond what the solve needs changes nothing
+  sp.nsgs.time_budget_s = 100.0;
+  const FcSolveResult roomy = SolveFcProblem(p, sp, &r_roomy);
+  EXPECT_FALSE(roomy.nsgs.budget_stopped);
+  EXPECT_EQ(roomy.nsgs.iterations, free.nsgs.iterations);
+  EXPECT_EQ((r_roomy - r_free).norm(), 0.0);
+}
+
 TEST(LocalSolver, SlideFromAnAngleHintIsAsExactAsFromNone) {
   // the slide case first tries Newton on the slip angle from the hint; a hint
   // far from the root must still end in an exact solution (the scan takes over)

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <cmath>
 #include <cstdlib>
 #include <new>
 
@@ -82,6 +83,35 @@ TEST(StepSafety, SteadyStateStepDoesNotAllocate) {
   EXPECT_EQ(g_allocations.load(), 0);
   EXPECT_GT(w.rows.size(), 10u);
   EXPECT_EQ(w.rejected_steps, 0);
+}
+
+TEST(StepSafety, StepBudgetEndsTheSolveEarlyCountsItAndAllocatesNothing) {
+  World w;
+  BuildScene(w);
+  for (int i = 0; i < 300; ++i) w.Step();
+  ASSERT_GT(w.rows.size(), 10u);
+  w.params.solver.tolerance = 1e-14;  // out of reach: without the budget every step sweeps to the cap
+  w.params.step_time_budget_s = 1e-9;  // spent before the solve starts: one sweep per step
+  g_allocations = 0;
+  g_counting = true;
+  for (int i = 0; i < 50; ++i) {
+    w.Step();
+    ASSERT_EQ(w.profile.iterations, 1) << i;
+    ASSERT_TRUE(w.profile.budget_stopped) << i;
+    ASSERT_FALSE(w.profile.converged) << i;
+    ASSERT_TRUE(std::isfinite(w.profile.residual)) << i;
+  }
+  g_counting = false;
+  EXPECT_EQ(g_allocations.load(), 0);
+  EXPECT_EQ(w.budget_stopped_steps, 50);
+  EXPECT_GE(w.unconverged_steps, 50);
+  EXPECT_EQ(w.rejected_steps, 0);
+  // budget off: the sweep cap again
+  w.params.step_time_budget_s = 0.0;
+  w.Step();
+  EXPECT_FALSE(w.profile.budget_stopped);
+  EXPECT_EQ(w.profile.iterations, w.params.solver.max_iterations);
+  EXPECT_EQ(w.budget_stopped_steps, 50);
 }
 
 TEST(StepSafety, NonFiniteStepIsRejectedAndThePreviousStateKept) {

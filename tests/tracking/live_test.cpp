@@ -57,6 +57,10 @@ TEST(Live, ReceivesSendOnLoopbackAtTheRateSentAndHoldsItsRate) {
   // those slots up, as it should, and its rate says only how slow the instrumented build is
 #endif
   EXPECT_NE(json.find("\"lcm_ok\":true"), std::string::npos) << r.output;
+  // the step budget (default 0.8 of a timestep): its stops are among the unconverged steps
+  EXPECT_LE(JsonNumber(json, "budget_stops"), JsonNumber(json, "unconverged_steps")) << r.output;
+  EXPECT_LE(JsonNumber(json, "unconverged_steps"), JsonNumber(json, "steps")) << r.output;
+  EXPECT_TRUE(std::isfinite(JsonNumber(json, "residual_max"))) << r.output;
 
   // what was published: poses and contacts at about 50 Hz each
   lcm::LogFile log(dir + "/live.lcmlog", "r");
