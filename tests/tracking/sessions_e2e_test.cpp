@@ -18,8 +18,10 @@ TEST(SessionsEndToEnd, SendRecordReplayGraspsLiftsAndIsDeterministic) {
   const std::string log = dir + "/session.lcmlog";
   const int port = test::FreeUdpPort();
   test::Background record(Binary() + " record --quiet --port " + std::to_string(port) + " -o " + log +
-                          " --duration 3.8");
-  std::this_thread::sleep_for(std::chrono::milliseconds(400));
+                          " --duration 6");
+  // send only once the socket is open (a fixed wait lost the first datagrams under ASan on a
+  // loaded CI machine); the 2.9 s session then fits in the duration with room to spare
+  ASSERT_NE(record.ReadLine().find("record: listening"), std::string::npos);
   const test::Result send = test::Run(Binary() + " send --synthetic --port " + std::to_string(port));
   ASSERT_EQ(send.code, 0) << send.output;
   const test::Result rec = record.Wait();
