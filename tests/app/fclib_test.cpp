@@ -22,6 +22,7 @@ std::string TempPath(const std::string& name) {
 }
 
 TEST(Fclib, ReadsTheSampleProblems) {
+  // skipped only in builds without libfclib-dev (optional; scripts/setup.sh installs it)
   if (!FclibAvailable()) GTEST_SKIP() << "built without FCLIB";
   FcProblem p;
   std::string error;
@@ -33,6 +34,7 @@ TEST(Fclib, ReadsTheSampleProblems) {
 }
 
 TEST(Fclib, NsgsSolvesBothSamplesToTheSiconosTolerance) {
+  // skipped only in builds without libfclib-dev (optional; scripts/setup.sh installs it)
   if (!FclibAvailable()) GTEST_SKIP() << "built without FCLIB";
   for (const std::string& f : {kPerioBox, kCapsules}) {
     FcProblem p;
@@ -51,6 +53,7 @@ TEST(Fclib, NsgsSolvesBothSamplesToTheSiconosTolerance) {
 }
 
 TEST(Fclib, RoundTripsAnExportedStepProblem) {
+  // skipped only in builds without libfclib-dev (optional; scripts/setup.sh installs it)
   if (!FclibAvailable()) GTEST_SKIP() << "built without FCLIB";
   // a deformable sphere resting on a plane: a real step problem with deformable coupling
   World w;
@@ -100,6 +103,7 @@ TEST(Fclib, RoundTripsAnExportedStepProblem) {
 }
 
 TEST(Fclib, BadFilesAreRefusedWithTheirName) {
+  // skipped only in builds without libfclib-dev (optional; scripts/setup.sh installs it)
   if (!FclibAvailable()) GTEST_SKIP() << "built without FCLIB";
   FcProblem p;
   std::string error;
@@ -128,6 +132,7 @@ TEST(Fclib, BadFilesAreRefusedWithTheirName) {
 }
 
 TEST(Fclib, SolveCommandReportsAndRefuses) {
+  // skipped only in builds without libfclib-dev (optional; scripts/setup.sh installs it)
   if (!FclibAvailable()) GTEST_SKIP() << "built without FCLIB";
   const std::string out = TempPath("solve.txt");
   std::string cmd = std::string(GRASPSIM_BINARY) + " solve " + kPerioBox + " --json --tolerance 1e-8 > " + out;

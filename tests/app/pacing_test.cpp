@@ -49,6 +49,7 @@ TEST(Pacing, NoPriorityKeepsNormalScheduling) {
 }
 
 TEST(Pacing, FifoIsGrantedOrTheRefusalSaysWhy) {
+  // skipped only on a one-core machine, where pacing deliberately asks for no SCHED_FIFO
   if (sysconf(_SC_NPROCESSORS_ONLN) < 2) GTEST_SKIP() << "one core: SCHED_FIFO is not asked";
   PacingOptions o;
   o.priority = 10;
@@ -65,6 +66,7 @@ TEST(Pacing, FifoIsGrantedOrTheRefusalSaysWhy) {
 }
 
 TEST(Pacing, PinsToAnExistingCoreAndSaysSoOfOneThatIsNot) {
+  // skipped only on a one-core machine: there is no other core to keep the renderer on
   if (sysconf(_SC_NPROCESSORS_ONLN) < 2) GTEST_SKIP() << "one core: nothing to pin to";
   PacingOptions o;
   o.cpu = 0;

@@ -186,6 +186,7 @@ TEST(RenderCli, BadRenderOptionsAreRefusedWithAMessage) {
 }
 
 TEST(RenderCli, AnEncoderThatQuitsEndsTheRunWithAnErrorNotASigpipe) {
+  // skipped only where ffmpeg is absent (optional; scripts/setup.sh installs it)
   if (Sh("command -v ffmpeg").code != 0) GTEST_SKIP() << "ffmpeg is not installed";
   const std::string dir = TempDir("quit");
   // ffmpeg cannot guess a container from this name: it exits before reading a frame

@@ -32,6 +32,7 @@ void ExpectSameMeasure(const FcProblem& p, const char* what) {
 }
 
 TEST(Siconos, SameErrorMeasureOnRandomRigidProblems) {
+  // skipped only in builds without libsiconos-numerics-dev (optional; scripts/setup.sh installs it)
   if (!SiconosAvailable()) GTEST_SKIP() << "built without Siconos Numerics";
   ExpectSameMeasure(RandomRigidProblem(40, 2, 5), "random rigid 40");
   ExpectSameMeasure(RandomRigidProblem(120, 4, 9), "random rigid 120");
@@ -39,6 +40,7 @@ TEST(Siconos, SameErrorMeasureOnRandomRigidProblems) {
 
 #ifdef GRASPSIM_HAVE_FCLIB
 TEST(Siconos, SameErrorMeasureOnTheFclibSample) {
+  // skipped only in builds without libsiconos-numerics-dev (optional; scripts/setup.sh installs it)
   if (!SiconosAvailable()) GTEST_SKIP() << "built without Siconos Numerics";
   FcProblem p;
   std::string error;

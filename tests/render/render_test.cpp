@@ -477,6 +477,7 @@ TEST(FrameSink, PngSequenceAndVideoAreWritten) {
   EXPECT_EQ(w, 64);
   EXPECT_EQ(back[0], 80);
   stbi_image_free(back);
+  // the PNG part ran above; the MP4 part is skipped only where ffmpeg is absent
   if (FindExecutable("ffmpeg").empty()) GTEST_SKIP() << "ffmpeg is not installed";
   const std::string mp4 = dir + "/clip.mp4";
   FfmpegVideo v;
@@ -487,6 +488,7 @@ TEST(FrameSink, PngSequenceAndVideoAreWritten) {
 }
 
 TEST(FrameSink, AnEncoderThatQuitsIsAnErrorNotASigpipe) {
+  // skipped only where ffmpeg is absent (optional; scripts/setup.sh installs it)
   if (FindExecutable("ffmpeg").empty()) GTEST_SKIP() << "ffmpeg is not installed";
   // an output ffmpeg cannot open: it exits at once, our writes then fail
   FfmpegVideo v;
