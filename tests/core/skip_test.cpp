@@ -6,46 +6,16 @@
 #include <cmath>
 
 #include "core/world.h"
+#include "soft_bodies.h"
 
 namespace gs {
 namespace {
 
-int AddPlane(World& w) {
-  BodySpec plane;
-  plane.name = "plane";
-  plane.is_plane = true;
-  return AddBody(w, plane);
-}
+using test::AddPlane;
 
-BodySpec Ball(const Vec3& at, bool deformable) {
-  BodySpec s;
-  s.name = "ball";
-  s.shape.type = EShape::Sphere;
-  s.shape.radius = 0.01;
-  s.geometry.points = 1500;
-  s.geometry.control_points = 200;
-  s.mass = 0.05;
-  s.pose = Pose::Translation(at);
-  if (deformable) {
-    s.deformation.model = EDeformation::Gaussian;
-    s.deformation.stiffness = 500;
-    s.deformation.damping = 1;
-    s.deformation.influence_radius = 0.003;
-  }
-  return s;
-}
+BodySpec Ball(const Vec3& at, bool deformable) { return test::SoftBall(at, deformable); }
 
-BodySpec Box(const Vec3& at, double half) {
-  BodySpec b;
-  b.name = "box";
-  b.shape.type = EShape::Box;
-  b.shape.half_extents = Vec3::Constant(half);
-  b.geometry.points = 1500;
-  b.geometry.control_points = 200;
-  b.mass = 0.05;
-  b.pose = Pose::Translation(at);
-  return b;
-}
+BodySpec Box(const Vec3& at, double half) { return test::SmallBox("box", at, half); }
 
 // a row of resting boxes on a plane, friction mu
 void RestingBoxes(World& w, double mu) {

@@ -7,26 +7,15 @@
 #include <cmath>
 
 #include "core/world.h"
+#include "soft_bodies.h"
 
 namespace gs {
 namespace {
 
-int AddPlane(World& w) {
-  BodySpec plane;
-  plane.name = "plane";
-  plane.is_plane = true;
-  return AddBody(w, plane);
-}
+using test::AddPlane;
 
 BodySpec Box(const char* name, const Vec3& at, double half, bool deformable) {
-  BodySpec b;
-  b.name = name;
-  b.shape.type = EShape::Box;
-  b.shape.half_extents = Vec3::Constant(half);
-  b.geometry.points = 1500;
-  b.geometry.control_points = 200;
-  b.mass = 0.05;
-  b.pose = Pose::Translation(at);
+  BodySpec b = test::SmallBox(name, at, half);
   if (deformable) {
     b.deformation.model = EDeformation::Gaussian;
     b.deformation.stiffness = 2000;

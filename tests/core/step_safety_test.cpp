@@ -8,6 +8,7 @@
 #include <new>
 
 #include "core/world.h"
+#include "soft_bodies.h"
 
 namespace {
 std::atomic<long> g_allocations{0};
@@ -40,34 +41,12 @@ void BuildScene(World& w) {
   w.params.dt = 1e-3;
   w.params.solver.tolerance = 1e-7;
   w.params.solver.max_iterations = 200;
-  BodySpec plane;
-  plane.name = "plane";
-  plane.is_plane = true;
-  AddBody(w, plane);
-  BodySpec s;
-  s.name = "ball";
-  s.shape.type = EShape::Sphere;
-  s.shape.radius = 0.01;
-  s.geometry.points = 1500;
-  s.geometry.control_points = 200;
-  s.mass = 0.05;
-  s.pose = Pose::Translation(Vec3(0, 0, 0.0101));
-  s.deformation.model = EDeformation::Gaussian;
-  s.deformation.stiffness = 500;
-  s.deformation.damping = 1;
-  s.deformation.influence_radius = 0.003;
+  test::AddPlane(w);
+  BodySpec s = test::SoftBall(Vec3(0, 0, 0.0101));
   s.drive.enabled = true;
   s.drive.force = Vec3(0.05, 0, 0);
   AddBody(w, s);
-  BodySpec b;
-  b.name = "box";
-  b.shape.type = EShape::Box;
-  b.shape.half_extents = Vec3::Constant(0.01);
-  b.geometry.points = 1500;
-  b.geometry.control_points = 200;
-  b.mass = 0.05;
-  b.pose = Pose::Translation(Vec3(0.05, 0, 0.0102));
-  AddBody(w, b);
+  AddBody(w, test::SmallBox("box", Vec3(0.05, 0, 0.0102), 0.01));
   w.Finalize();
 }
 
