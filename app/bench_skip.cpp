@@ -38,6 +38,19 @@ DeformationParams Soft() {
   return d;
 }
 
+// a free rigid cube named "box" of half side `half` centred at `at`
+BodySpec Cube(const Vec3& at, double half, int points, int control_points, double mass) {
+  BodySpec b;
+  b.name = "box";
+  b.shape.type = EShape::Box;
+  b.shape.half_extents = Vec3::Constant(half);
+  b.geometry.points = points;
+  b.geometry.control_points = control_points;
+  b.mass = mass;
+  b.pose = Pose::Translation(at);
+  return b;
+}
+
 // nine 3 cm boxes resting on a table in a 3x3 grid (about 40 contacts each)
 // (asleep after 0.1 s at rest unless `sleep`: the other features are measured awake)
 void Boxes(World& w, double mu, bool deformable) {
@@ -48,14 +61,7 @@ void Boxes(World& w, double mu, bool deformable) {
   w.params.solver.max_iterations = 100;
   AddPlane(w);
   for (int i = 0; i < 9; ++i) {
-    BodySpec b;
-    b.name = "box";
-    b.shape.type = EShape::Box;
-    b.shape.half_extents = Vec3::Constant(0.015);
-    b.geometry.points = 3000;
-    b.geometry.control_points = 300;
-    b.mass = 0.1;
-    b.pose = Pose::Translation(Vec3(0.05 * (i % 3), 0.05 * (i / 3), 0.0151));
+    BodySpec b = Cube(Vec3(0.05 * (i % 3), 0.05 * (i / 3), 0.0151), 0.015, 3000, 300, 0.1);
     if (deformable) b.deformation = Soft();
     AddBody(w, b);
   }
@@ -72,18 +78,11 @@ void Stack(World& w, bool sleep) {
   w.params.sleep.enabled = sleep;
   AddPlane(w);
   for (int i = 0; i < 3; ++i) {
-    BodySpec b;
-    b.name = "box";
-    b.shape.type = EShape::Box;
-    b.shape.half_extents = Vec3::Constant(0.01);
-    b.geometry.points = 1500;
-    b.geometry.control_points = 200;
-    b.mass = 0.05;
+    BodySpec b = Cube(Vec3(0, 0, 0.0101 + i * 0.0202), 0.01, 1500, 200, 0.05);
     b.deformation.model = EDeformation::Gaussian;
     b.deformation.stiffness = 2000;
     b.deformation.damping = 5;
     b.deformation.influence_radius = 0.003;
-    b.pose = Pose::Translation(Vec3(0, 0, 0.0101 + i * 0.0202));
     AddBody(w, b);
   }
   w.Finalize();
