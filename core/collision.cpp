@@ -390,6 +390,8 @@ void CollisionStats::Add(const CollisionStats& o) {
   culled += o.culled;
   contacts += o.contacts;
   dropped += o.dropped;
+  cache_hits += o.cache_hits;
+  cache_builds += o.cache_builds;
   traverse_s += o.traverse_s;
   project_s += o.project_s;
 }
@@ -431,7 +433,7 @@ bool RootsOverlap(const CollisionShape& a, const Pose& pose_a, const CollisionSh
 
 void CollidePair(int id_a, const CollisionShape& a, const Pose& pose_a, int id_b, const CollisionShape& b,
                  const Pose& pose_b, const CollisionParams& params, CollisionScratch* s, ContactBuffer* out,
-                 CollisionStats* stats) {
+                 CollisionStats* stats, PairCache* cache) {
   CollisionStats local;
   const int dropped_before = out->dropped;
   if (a.is_plane && b.is_plane) return;
@@ -451,20 +453,70 @@ void CollidePair(int id_a, const CollisionShape& a, const Pose& pose_a, int id_b
   const Pose a_in_b = b_in_a.Inverse();
   // the smaller tree is moved into the larger one's frame, once
   const bool in_b = a.tree->nodes().size() <= b.tree->nodes().size();
-  if (in_b) {
-    MoveNodes(*a.tree, a_in_b, &s->moved);
-    TraverseTrees(s->moved.data(), a.tree->span_end(), a.tree->root(), b.tree->traversal(), b.tree->span_end(),
-                  b.tree->root(), params.contact_threshold, s, &local);
+  const Pose& moved_pose = in_b ? a_in_b : b_in_a;
+  MoveNodes(in_b ? *a.tree : *b.tree, moved_pose, &s->moved);
+  const TraversalNode* na = in_b ? s->moved.data() : a.tree->traversal();
+  const TraversalNode* nb = in_b ? b.tree->traversal() : s->moved.data();
+  const SphereTree& ta = *a.tree;
+  const SphereTree& tb = *b.tree;
+  const double thr = params.contact_threshold;
+  if (cache && cache->limit > 0 && params.pair_cache_margin > 0.0) {
+    bool served = false;
+    if (cache->valid && cache->in_b == in_b) {
+      // how far any node centre of the moved tree has gone since the list was built,
+      // plus how much any radius may have grown: within the margin, the list holds
+      // every pair a traversal would find now
+      const double motion = (moved_pose.R - cache->moved.R).norm() * (in_b ? ta : tb).center_extent() +
+                            (moved_pose.t - cache->moved.t).norm();
+      const double grown = (ta.growth_drift() - cache->drift_a) + (tb.growth_drift() - cache->drift_b);
+      if (motion + grown <= cache->margin) {
+        s->pairs.clear();
+        for (const auto& [la, lb] : cache->pairs) {
+          const TraversalNode& x = na[ta.leaf_node(la)];
+          const TraversalNode& y = nb[tb.leaf_node(lb)];
+          const double reach = x.radius + y.radius + thr;
+          const Vec3 d = x.center - y.center;
+          const double d2 = d.squaredNorm();
+          if (d2 <= reach * reach) s->pairs.push_back({la, lb, d2, d});
+        }
+        local.node_pairs += static_cast<int>(cache->pairs.size());
+        local.leaf_pairs += static_cast<int>(s->pairs.size());
+        ++local.cache_hits;
+        served = true;
+      }
+    }
+    if (!served) {
+      // traverse with the margin, keep the list, then keep the pairs within reach
+      const double margin = params.pair_cache_margin * (ta.mean_leaf_radius() + tb.mean_leaf_radius());
+      CollisionStats traversal;
+      TraverseTrees(na, ta.span_end(), ta.root(), nb, tb.span_end(), tb.root(), thr + margin, s, &traversal);
+      local.node_pairs += traversal.node_pairs;
+      if (cache->pairs.capacity() < cache->limit) cache->pairs.reserve(cache->limit);  // once per pair
+      cache->valid = s->pairs.size() <= cache->limit;
+      if (cache->valid) {
+        cache->pairs.clear();
+        for (const CollisionScratch::LeafPair& p : s->pairs) cache->pairs.emplace_back(p.leaf_a, p.leaf_b);
+        cache->moved = moved_pose;
+        cache->in_b = in_b;
+        cache->margin = margin;
+        cache->drift_a = ta.growth_drift();
+        cache->drift_b = tb.growth_drift();
+      }
+      size_t kept = 0;
+      for (const CollisionScratch::LeafPair& p : s->pairs) {
+        const double reach = na[ta.leaf_node(p.leaf_a)].radius + nb[tb.leaf_node(p.leaf_b)].radius + thr;
+        if (p.dist2 <= reach * reach) s->pairs[kept++] = p;
+      }
+      s->pairs.resize(kept);
+      local.leaf_pairs += static_cast<int>(kept);
+      ++local.cache_builds;
+    }
   } else {
-    MoveNodes(*b.tree, b_in_a, &s->moved);
-    TraverseTrees(a.tree->traversal(), a.tree->span_end(), a.tree->root(), s->moved.data(), b.tree->span_end(),
-                  b.tree->root(), params.contact_threshold, s, &local);
+    TraverseTrees(na, ta.span_end(), ta.root(), nb, tb.span_end(), tb.root(), thr, s, &local);
   }
 
   // closest overlapping leaf on the other body, for every leaf of each body, and
   // how high each leaf centre stands above the other body's overlapping leaf slabs
-  const SphereTree& ta = *a.tree;
-  const SphereTree& tb = *b.tree;
   // from the centres' offset d (a's minus b's, in the traversal's frame): a's
   // height above b's slab is d . n_b, b's above a's is -d . n_a, each normal
   // turned into that frame (R maps a's frame to b's)

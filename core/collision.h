@@ -37,6 +37,11 @@ struct CollisionShape {
 struct CollisionParams {
   double contact_threshold = 2e-4;  ///< delta_eps (m): pairs with a larger gap are not contacts
   double max_bandwidth_factor = 1.0;  ///< projection bandwidth = clamp(centre distance, h, factor * h)
+  /// Leaf-pair cache (PairCache): the margin, as a fraction of the two trees' mean
+  /// leaf radii, by which the cached traversal reaches beyond the contact threshold.
+  /// The cache serves the following steps while the trees' relative motion plus
+  /// their radius growth stays within it. 0: every step traverses the trees.
+  double pair_cache_margin = 0.25;
 };
 
 /// One contact: control point `leaf` of body[0] against the surface of body[1].
@@ -64,6 +69,8 @@ struct CollisionStats {
   int culled = 0;         ///< leaves skipped: above every overlapping leaf's slab by more than delta_eps
   int contacts = 0;       ///< contacts added
   int dropped = 0;        ///< contacts lost because the buffer was full
+  int cache_hits = 0;     ///< body pairs whose leaf pairs came from their PairCache
+  int cache_builds = 0;   ///< body pairs whose PairCache was (re)built by a traversal
   double traverse_s = 0;  ///< time in traversal (s)
   double project_s = 0;   ///< time in projections (s)
   void Add(const CollisionStats& o);
@@ -85,6 +92,27 @@ struct CollisionScratch {
   std::vector<TraversalNode> moved;      // the smaller tree's nodes in the other body's frame
   std::vector<int> node_stack, ball;     // gathering the points around a query off the surface
   void Reserve(int max_leaves, int max_pairs);
+};
+
+/// The leaf pairs of two trees found by a traversal that reached `margin` beyond
+/// the contact threshold, kept for the following steps. While the moved tree's
+/// pose relative to the other has carried no node centre farther than the margin
+/// less both trees' radius growth since (SphereTree::growth_drift), every leaf pair
+/// a fresh traversal would find is in the list: a step then tests the listed pairs
+/// against the current centres and radii instead of descending the trees. A pair
+/// the list keeps may pass that test where a fresh traversal would have stopped at
+/// an ancestor (node spheres bound the points, not their children's spheres): it
+/// only adds a candidate. The list's capacity (`limit` pairs) is taken the first
+/// time the pair is traversed, once; a list that would outgrow it is not kept.
+struct PairCache {
+  std::vector<std::pair<int, int>> pairs;  ///< (leaf of a, leaf of b)
+  size_t limit = 0;      ///< most pairs kept (0: no cache for this pair)
+  Pose moved;            ///< the moved tree's pose in the other tree's frame when built
+  bool in_b = false;     ///< a's tree was the moved one
+  bool valid = false;
+  double margin = 0.0;   ///< m
+  double drift_a = 0.0, drift_b = 0.0;  ///< the trees' growth_drift() when built
+  void Invalidate() { valid = false; }
 };
 
 /// A fixed-capacity contact list: adding beyond capacity drops and counts.
@@ -121,9 +149,11 @@ bool ProjectOntoSurfaceFrom(const Vec3* positions, const Vec3* normals, const in
                             const Vec3& start, const MlsParams& mls, MlsProjection* out);
 
 /// Appends the contacts between bodies a and b (ids id_a, id_b) to `out`.
+/// With `cache` (two trees; ignored for a plane), the traversal is served from it
+/// or rebuilds it (params.pair_cache_margin).
 void CollidePair(int id_a, const CollisionShape& a, const Pose& pose_a, int id_b, const CollisionShape& b,
                  const Pose& pose_b, const CollisionParams& params, CollisionScratch* scratch, ContactBuffer* out,
-                 CollisionStats* stats);
+                 CollisionStats* stats, PairCache* cache = nullptr);
 
 /// True when the root spheres (plus the threshold) overlap: the broad phase.
 bool RootsOverlap(const CollisionShape& a, const Pose& pose_a, const CollisionShape& b, const Pose& pose_b,

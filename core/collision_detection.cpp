@@ -48,8 +48,9 @@ void DetectCollisions(World& w) {
       ++w.profile.work.pair_tests;
       if (!RootsOverlap(sa, a.pose, sb, b.pose, w.params.collision.contact_threshold)) continue;
       ++w.profile.work.pairs_traversed;
+      PairCache* cache = w.pair_caches.empty() ? nullptr : &w.pair_caches[static_cast<size_t>(i) * n + j];
       CollidePair(i, sa, a.pose, j, sb, b.pose, w.params.collision, &w.collision_scratch, &w.contacts,
-                  &w.profile.collision);
+                  &w.profile.collision, cache);
     }
   }
   w.profile.traverse = w.profile.collision.traverse_s;

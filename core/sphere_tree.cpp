@@ -2,6 +2,7 @@
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <functional>
 #include <cmath>
 #include <limits>
 
@@ -202,6 +203,12 @@ SphereTree::EBuildError SphereTree::Build(const PointCloud& cloud, const MlsPara
     span_end_[k] = n.IsLeaf() ? static_cast<int>(k) + 1 : span_end_[n.child[1]];
   }
   growth_.assign(nodes_.size(), 0.0);
+  growth_drift_ = 0.0;
+  center_extent_ = 0.0;
+  for (const TreeNode& n : nodes_) center_extent_ = std::max(center_extent_, n.center.norm());
+  mean_leaf_radius_ = 0.0;
+  for (int ni : leaf_node_) mean_leaf_radius_ += nodes_[ni].rest_radius;
+  mean_leaf_radius_ /= static_cast<double>(std::max<size_t>(1, leaf_node_.size()));
   dirty_.clear();
   dirty_.reserve(nodes_.size());
   dirty_mark_.assign(nodes_.size(), 0);
@@ -276,19 +283,27 @@ void SphereTree::Refit(const Vec3* displacement, const double* spread, const uin
     // the frontier where refit stops: nodes at the stop level, or leaves above it
     stop_level_ = stop_level;
     stop_nodes_.clear();
-    for (size_t i = 0; i < nodes_.size(); ++i)
+    shallow_nodes_.clear();
+    for (size_t i = 0; i < nodes_.size(); ++i) {
       if (nodes_[i].depth == stop_level || (nodes_[i].IsLeaf() && nodes_[i].depth < stop_level))
         stop_nodes_.push_back(static_cast<int>(i));
+      else if (nodes_[i].depth < stop_level)
+        shallow_nodes_.push_back(static_cast<int>(i));
+    }
   }
 
   // changed leaves: growth = displacement bound of their surface
   dirty_.clear();
+  double rise = 0.0;  // largest growth increase of a leaf
   for (int l = 0; l < num_leaves(); ++l) {
     if (!changed[l]) continue;
     ++local.leaves_changed;
     const int ni = leaf_node_[l];
     const double g = displacement[l].norm() + std::max(0.0, spread[l]);
-    growth_[ni] = std::isfinite(g) ? g : growth_[ni];
+    if (std::isfinite(g)) {
+      rise = std::max(rise, g - growth_[ni]);
+      growth_[ni] = g;
+    }
     nodes_[ni].radius = nodes_[ni].rest_radius + growth_[ni];
     SyncRadius(ni);
     ++local.nodes_visited;
@@ -298,10 +313,9 @@ void SphereTree::Refit(const Vec3* displacement, const double* spread, const uin
     }
   }
 
-  // ancestors down to the stop level, deepest first: growth = max over children
-  std::sort(dirty_.begin(), dirty_.end(), [&](int a, int b) {
-    return nodes_[a].depth > nodes_[b].depth || (nodes_[a].depth == nodes_[b].depth && a < b);
-  });
+  // ancestors down to the stop level, children before parents: growth = max over
+  // children (nodes are in depth-first order, so a child's index exceeds its parent's)
+  std::sort(dirty_.begin(), dirty_.end(), std::greater<int>());
   for (int ni : dirty_) {
     dirty_mark_[ni] = 0;
     TreeNode& node = nodes_[ni];
@@ -317,16 +331,15 @@ void SphereTree::Refit(const Vec3* displacement, const double* spread, const uin
     for (int ni : stop_nodes_) top = std::max(top, growth_[ni]);
     if (top != top_growth_) {
       top_growth_ = top;
-      for (size_t i = 0; i < nodes_.size(); ++i) {
-        if (nodes_[i].depth >= stop_level) continue;
-        if (nodes_[i].IsLeaf()) continue;  // shallow leaves are on the frontier
+      for (int i : shallow_nodes_) {
         growth_[i] = top;
         nodes_[i].radius = nodes_[i].rest_radius + top;
-        SyncRadius(static_cast<int>(i));
+        SyncRadius(i);
         ++local.nodes_visited;
       }
     }
   }
+  growth_drift_ += rise;
   if (stats) *stats = local;
 }
 

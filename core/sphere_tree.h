@@ -128,6 +128,14 @@ class SphereTree {
   void ResetRefit();
   /// Radius of node i as refit (rest radius plus growth), what traversal must use.
   double radius(int i) const { return nodes_[i].radius; }
+  /// Sum over all refits of the largest rise of a leaf's growth: no node's radius
+  /// has grown by more than the difference of two readings since the first one
+  /// (a radius grows only through its leaves; shrinking is not subtracted).
+  double growth_drift() const { return growth_drift_; }
+  /// Largest distance of a node centre from the rest frame's origin (m).
+  double center_extent() const { return center_extent_; }
+  /// Mean rest radius of the leaves (m).
+  double mean_leaf_radius() const { return mean_leaf_radius_; }
 
  private:
   int BuildNode(const PointCloud& cloud, int first, int count, int leaves, int parent, int depth);
@@ -152,8 +160,12 @@ class SphereTree {
   std::vector<int> dirty_;          // scratch for Refit
   std::vector<uint8_t> dirty_mark_;
   std::vector<int> stop_nodes_;     // nodes at the stop level (or leaves above it)
+  std::vector<int> shallow_nodes_;  // inner nodes above the stop level (inflated by top_growth_)
   int stop_level_ = -1;
   double top_growth_ = 0.0;         // growth applied to every node above the stop level
+  double growth_drift_ = 0.0;
+  double center_extent_ = 0.0;
+  double mean_leaf_radius_ = 0.0;
   double border_ = 0.0;
   double cover_margin_ = 0.0;
   int max_depth_ = 0;

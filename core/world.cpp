@@ -151,6 +151,18 @@ void World::Finalize() {
   contacts.Reserve(params.max_contacts);
   rows.reserve(params.max_contacts);
   collision_scratch.Reserve(max_leaves, 16 * params.max_contacts);
+  // leaf-pair caches of the pairs of trees (their lists take their capacity the
+  // first time the pair is traversed)
+  pair_caches.clear();
+  pair_caches.resize(static_cast<size_t>(n) * n);
+  for (int i = 0; i < n; ++i)
+    for (int j = i + 1; j < n; ++j) {
+      const Body& a = bodies[i];
+      const Body& b = bodies[j];
+      if (a.geometry.is_plane || b.geometry.is_plane) continue;
+      const size_t all = static_cast<size_t>(a.geometry.tree.num_leaves()) * b.geometry.tree.num_leaves();
+      pair_caches[static_cast<size_t>(i) * n + j].limit = std::min(all, static_cast<size_t>(4) * params.max_contacts);
+    }
   warm_prev.reserve(params.max_contacts);
   warm_next.reserve(params.max_contacts);
   solve_r.reserve(params.max_contacts);

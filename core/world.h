@@ -277,6 +277,7 @@ class World {
   double last_constrained_motion_s_ = 0.0;
   std::vector<double> friction_;
   CollisionScratch collision_scratch;
+  std::vector<PairCache> pair_caches;  ///< leaf-pair caches of the tree pairs, [i * bodies + j] for i < j
   NsgsScratch gs_scratch;
   std::vector<std::pair<uint64_t, Vec3>> warm_prev, warm_next;  ///< previous step's world forces by key
   std::vector<Vec3> solve_r;

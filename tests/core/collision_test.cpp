@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <map>
 #include <random>
 #include <set>
 
@@ -285,6 +286,91 @@ TEST(Collision, DeepBoxOnBoxGivesNoSidewaysContacts) {
     // the overlap is seen: many contacts about as deep as the boxes overlap
     EXPECT_GT(vertical, 50) << "depth " << depth;
   }
+}
+
+}  // namespace
+}  // namespace gs
+
+namespace gs {
+namespace {
+
+// contacts by key: (gap, normal)
+std::map<uint64_t, std::pair<double, Vec3>> ByKey(const ContactBuffer& b) {
+  std::map<uint64_t, std::pair<double, Vec3>> m;
+  for (const Contact& c : b.items) m[c.key] = {c.gap, c.normal};
+  return m;
+}
+
+// A fingertip pressed into a box slides, turns and deforms step by step, with two
+// jumps: served from its leaf-pair cache, every step gives the contacts a fresh
+// traversal gives, and the cache is rebuilt exactly when the motion or the growth
+// of the radii outruns its margin.
+TEST(Collision, PairCacheGivesTheContactsOfAFreshTraversal) {
+  ShapeDesc box;
+  box.type = EShape::Box;
+  box.half_extents = Vec3::Constant(0.03);
+  ShapeDesc tip;
+  tip.type = EShape::Ellipsoid;
+  tip.semi_axes = Vec3(0.008, 0.008, 0.011);
+  auto fb = Make(box, 9000, 1200, 3);
+  auto ft = Make(tip, 2400, 320, 4);
+  CollisionParams params;
+  ASSERT_GT(params.pair_cache_margin, 0.0);
+  CollisionScratch scratch;
+  scratch.Reserve(1200, 200000);
+  ContactBuffer fresh, cached;
+  fresh.Reserve(20000);
+  cached.Reserve(20000);
+  PairCache cache;
+  cache.limit = 100000;
+  const int leaves = ft->geom.tree.num_leaves();
+  std::vector<Vec3> u(leaves, Vec3::Zero());
+  std::vector<double> spread(leaves, 0.0);
+  std::vector<uint8_t> changed(leaves, 1);
+  int hits = 0, builds = 0, contacts = 0;
+  double worst_gap = 0.0, worst_normal = 0.0;
+  for (int k = 0; k < 400; ++k) {
+    // slide 20 um and turn 1 mrad per step, 1 mm into the top face; jump at 150 and 300
+    const double x = -0.01 + 2e-5 * k + (k >= 150 ? 0.004 : 0.0) + (k >= 300 ? -0.006 : 0.0);
+    const Pose pt{Eigen::AngleAxisd(1e-3 * k, Vec3::UnitZ()).toRotationMatrix(), Vec3(x, 0.002, 0.03 + 0.011 - 1e-3)};
+    // the tip's pressed leaves sink a little more every step; at 250 by more than
+    // the margin at once
+    const double sink = k >= 250 ? 1.2 * cache.margin : 0.0;
+    for (int l = 0; l < leaves; ++l) {
+      const bool pressed = ft->geom.tree.control_point(l).z() < -0.009;
+      u[l] = pressed ? Vec3(0, 0, 2e-7 * k + sink) : Vec3::Zero();
+      changed[l] = pressed;
+    }
+    ft->geom.tree.Refit(u.data(), spread.data(), changed.data(), 3, nullptr);
+    fresh.Clear();
+    cached.Clear();
+    CollidePair(0, ft->shape(), pt, 1, fb->shape(), Pose{}, params, &scratch, &fresh, nullptr);
+    CollisionStats st;
+    CollidePair(0, ft->shape(), pt, 1, fb->shape(), Pose{}, params, &scratch, &cached, &st, &cache);
+    hits += st.cache_hits;
+    builds += st.cache_builds;
+    ASSERT_EQ(st.cache_hits + st.cache_builds, 1) << k;
+    // the jumps and the sudden growth rebuild the list at once
+    if (k == 0 || k == 150 || k == 250 || k == 300) {
+      EXPECT_EQ(st.cache_builds, 1) << k;
+    }
+    const auto a = ByKey(fresh), b = ByKey(cached);
+    ASSERT_EQ(a.size(), b.size()) << "step " << k;
+    for (const auto& [key, v] : a) {
+      const auto it = b.find(key);
+      ASSERT_NE(it, b.end()) << "step " << k << " key " << key;
+      worst_gap = std::max(worst_gap, std::abs(it->second.first - v.first));
+      worst_normal = std::max(worst_normal, (it->second.second - v.second).norm());
+    }
+    contacts += static_cast<int>(a.size());
+  }
+  std::printf("pair cache: %d hits, %d builds, %d contacts, worst gap difference %.3g m, normal %.3g\n", hits,
+              builds, contacts, worst_gap, worst_normal);
+  EXPECT_GT(contacts, 400 * 10);
+  EXPECT_GT(hits, 300);  // most steps are served from the list
+  EXPECT_GE(builds, 4);
+  EXPECT_LT(worst_gap, 1e-3 * fb->geom.mls.bandwidth);
+  EXPECT_LT(worst_normal, 1e-3);
 }
 
 }  // namespace
