@@ -98,13 +98,12 @@ void ConstrainedMotion(World& w) {
   for (Finger& f : w.hand.fingers) f.q_prev = f.q;
   w.hand.pose_prev = w.hand.pose;
 
-  // keep this step's forces (world frame) for the next warm start, sorted by key; a
-  // rejected step keeps the last accepted step's (its frames may be the non-finite part)
+  // keep this step's forces (world frame) for the next warm start (the contact space
+  // indexes them by key); a rejected step keeps the last accepted step's (its frames
+  // may be the non-finite part)
   if (w.profile.rejected) return;
   w.warm_next.clear();
   for (const ContactRow& r : w.rows) w.warm_next.emplace_back(r.contact.key, r.frame.transpose() * r.r);
-  std::sort(w.warm_next.begin(), w.warm_next.end(),
-            [](const std::pair<uint64_t, Vec3>& a, const std::pair<uint64_t, Vec3>& b) { return a.first < b.first; });
   std::swap(w.warm_prev, w.warm_next);
 }
 

@@ -76,9 +76,8 @@ void FinishRow(World& w, ContactRow* row, double gap_def, const Vec3& slip_def) 
   }
   row->r.setZero();
   // warm start: the previous world force of the same key, in the new frame
-  const auto it = std::lower_bound(w.warm_prev.begin(), w.warm_prev.end(), c.key,
-                                   [](const std::pair<uint64_t, Vec3>& e, uint64_t k) { return e.first < k; });
-  if (it != w.warm_prev.end() && it->first == c.key) row->r = row->frame * it->second;
+  const int warm = w.warm_index.Find(c.key);
+  if (warm >= 0) row->r = row->frame * w.warm_prev[warm].second;
 }
 
 }  // namespace
@@ -90,11 +89,11 @@ void BuildContactSpace(World& w) {
   std::swap(w.rows, w.rows_prev);
   std::swap(w.side_inf_idx, w.side_inf_idx_prev);
   std::swap(w.side_inf_phi, w.side_inf_phi_prev);
-  w.rows_prev_by_key.clear();
-  if (w.params.reuse_contact_space) {
-    for (size_t i = 0; i < w.rows_prev.size(); ++i) w.rows_prev_by_key.emplace_back(w.rows_prev[i].contact.key, static_cast<int>(i));
-    std::sort(w.rows_prev_by_key.begin(), w.rows_prev_by_key.end());
-  }
+  w.rows_prev_index.Clear();
+  if (w.params.reuse_contact_space)
+    for (size_t i = 0; i < w.rows_prev.size(); ++i) w.rows_prev_index.Insert(w.rows_prev[i].contact.key, static_cast<int>(i));
+  w.warm_index.Clear();
+  for (size_t i = 0; i < w.warm_prev.size(); ++i) w.warm_index.Insert(w.warm_prev[i].first, static_cast<int>(i));
   w.rows.clear();
   w.side_inf_idx.clear();
   w.side_inf_phi.clear();
@@ -113,12 +112,7 @@ void BuildContactSpace(World& w) {
     Vec3 slip = Vec3::Zero();
     row.w_diag.setZero();
     // the same contact in the last step, if any
-    row.prev = -1;
-    if (!w.rows_prev_by_key.empty()) {
-      const auto it = std::lower_bound(w.rows_prev_by_key.begin(), w.rows_prev_by_key.end(),
-                                       std::pair<uint64_t, int>(c.key, -1));
-      if (it != w.rows_prev_by_key.end() && it->first == c.key) row.prev = it->second;
-    }
+    row.prev = w.rows_prev_index.Find(c.key);
     for (int s = 0; s < 2; ++s) {
       const Body& b = w.bodies[c.body[s]];
       ContactSide& side = row.side[s];

@@ -171,7 +171,8 @@ void World::Finalize() {
   side_inf_idx.reserve(static_cast<size_t>(64) * params.max_contacts);
   side_inf_phi.reserve(static_cast<size_t>(64) * params.max_contacts);
   rows_prev.reserve(params.max_contacts);
-  rows_prev_by_key.reserve(params.max_contacts);
+  rows_prev_index.Reserve(params.max_contacts);
+  warm_index.Reserve(params.max_contacts);
   side_inf_idx_prev.reserve(static_cast<size_t>(64) * params.max_contacts);
   side_inf_phi_prev.reserve(static_cast<size_t>(64) * params.max_contacts);
   gs_scratch.Reserve(params.max_contacts);

@@ -25,6 +25,7 @@
 #include "core/collision.h"
 #include "core/deformation.h"
 #include "core/fc_problem.h"
+#include "core/key_index.h"
 #include "core/finger.h"
 #include "core/nsgs.h"
 #include "core/sampling.h"
@@ -279,7 +280,8 @@ class World {
   CollisionScratch collision_scratch;
   std::vector<PairCache> pair_caches;  ///< leaf-pair caches of the tree pairs, [i * bodies + j] for i < j
   NsgsScratch gs_scratch;
-  std::vector<std::pair<uint64_t, Vec3>> warm_prev, warm_next;  ///< previous step's world forces by key
+  std::vector<std::pair<uint64_t, Vec3>> warm_prev, warm_next;  ///< previous step's world forces (key, force)
+  KeyIndex warm_index;                ///< key -> index in warm_prev (built by the contact space)
   std::vector<Vec3> solve_r;
   std::vector<int> side_inf_idx;      ///< merged influences of the contact sides (see ContactSide)
   std::vector<double> side_inf_phi;
@@ -287,7 +289,7 @@ class World {
   std::vector<ContactRow> rows_prev;
   std::vector<int> side_inf_idx_prev;
   std::vector<double> side_inf_phi_prev;
-  std::vector<std::pair<uint64_t, int>> rows_prev_by_key;  ///< (key, index in rows_prev), sorted
+  KeyIndex rows_prev_index;           ///< key -> index in rows_prev
   // sleep: the last step's contacts (in pair order) and a cursor into them
   std::vector<Contact> contacts_prev;
   size_t reuse_cursor = 0;
