@@ -20,11 +20,14 @@ const char* NonFiniteStage(const World& w) {
     for (int j = 0; j < b.deform.size(); ++j)
       if (!b.u_free[j].allFinite()) return "free motion: relaxed deformation not finite";
   }
-  for (const ContactRow& r : w.rows)
-    if (!r.q.allFinite() || !r.w_diag.allFinite() || !r.frame.allFinite() || !std::isfinite(r.mu))
-      return "contact space: a contact's gap, frame or Delassus block is not finite";
-  for (const ContactRow& r : w.rows)
-    if (!r.r.allFinite()) return "solve: a contact force is not finite";
+  // one pass over the rows (a contact-space fault is named before a force's)
+  bool space_ok = true, forces_ok = true;
+  for (const ContactRow& r : w.rows) {
+    space_ok &= r.q.allFinite() && r.w_diag.allFinite() && r.frame.allFinite() && std::isfinite(r.mu);
+    forces_ok &= r.r.allFinite();
+  }
+  if (!space_ok) return "contact space: a contact's gap, frame or Delassus block is not finite";
+  if (!forces_ok) return "solve: a contact force is not finite";
   for (const Articulation& a : w.articulations)
     if (!a.dq.allFinite()) return "solve: a contact response is not finite";
   for (const Body& b : w.bodies) {

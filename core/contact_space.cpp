@@ -89,10 +89,10 @@ void BuildContactSpace(World& w) {
   std::swap(w.rows, w.rows_prev);
   std::swap(w.side_inf_idx, w.side_inf_idx_prev);
   std::swap(w.side_inf_phi, w.side_inf_phi_prev);
-  w.rows_prev_index.Clear();
+  w.rows_prev_index.Clear(static_cast<int>(w.rows_prev.size()));
   if (w.params.reuse_contact_space)
     for (size_t i = 0; i < w.rows_prev.size(); ++i) w.rows_prev_index.Insert(w.rows_prev[i].contact.key, static_cast<int>(i));
-  w.warm_index.Clear();
+  w.warm_index.Clear(static_cast<int>(w.warm_prev.size()));
   for (size_t i = 0; i < w.warm_prev.size(); ++i) w.warm_index.Insert(w.warm_prev[i].first, static_cast<int>(i));
   w.rows.clear();
   w.side_inf_idx.clear();
@@ -213,7 +213,15 @@ void BuildContactSpace(World& w) {
       ++w.profile.work.w_deform_sides;
       const int begin = static_cast<int>(w.side_inf_idx.size());
       const ContactSide* ps = prev ? &prev->side[s] : nullptr;
-      if (ps && ps->body == side.body && SameWeights(*ps, side)) {
+      if (side.count == 1 && side.w[0] == 1.0) {
+        // on one control point: its own influence, read in the model (what the merge
+        // would copy, bit for bit), and W_deform is its self compliance
+        const int* idx;
+        const double* phi;
+        side.inf_begin = -1;
+        side.inf_count = b.deform.Influence(side.idx[0], &idx, &phi);
+        side.w_deform = phi[0];
+      } else if (ps && ps->body == side.body && ps->inf_begin >= 0 && SameWeights(*ps, side)) {
         // unchanged since the last step: copy its merged influence and W_deform term
         ++w.profile.work.w_deform_reused;
         const int from = ps->inf_begin;
@@ -237,6 +245,17 @@ void BuildContactSpace(World& w) {
     }
     FinishRow(w, &row, gap_def, slip_def);
   }
+  // the solver's pointers to the merged influences (the buffers have stopped growing)
+  for (ContactRow& row : w.rows)
+    for (ContactSide& side : row.side) {
+      if (side.inf_count == 0) continue;
+      if (side.inf_begin < 0) {
+        w.bodies[side.body].deform.Influence(side.idx[0], &side.inf_idx, &side.inf_phi);
+      } else {
+        side.inf_idx = w.side_inf_idx.data() + side.inf_begin;
+        side.inf_phi = w.side_inf_phi.data() + side.inf_begin;
+      }
+    }
   const auto t2 = Clock::now();
   w.profile.fill_w_rigid = std::chrono::duration<double>(t1 - t0).count();
   w.profile.fill_w_deform = std::chrono::duration<double>(t2 - t1).count();

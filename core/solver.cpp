@@ -50,8 +50,8 @@ class WorldDelassus {
         Body& b = w_.bodies[s.body];
         // the force on this body, in its rest frame, over the control points it moves
         const Vec3 f = s.m.transpose() * dr;
-        const int* idx = w_.side_inf_idx.data() + s.inf_begin;
-        const double* phi = w_.side_inf_phi.data() + s.inf_begin;
+        const int* idx = s.inf_idx;
+        const double* phi = s.inf_phi;
         Vec3* u = b.u_acc.data();
         for (int m = 0; m < s.inf_count; ++m) u[idx[m]] += phi[m] * f;
         propagations_ += s.inf_count;
@@ -83,8 +83,8 @@ class WorldDelassus {
       if (s.inf_count > 0) {
         Body& b = w_.bodies[s.body];
         const Vec3 f = s.m.row(0).transpose() * dr;
-        const int* idx = w_.side_inf_idx.data() + s.inf_begin;
-        const double* phi = w_.side_inf_phi.data() + s.inf_begin;
+        const int* idx = s.inf_idx;
+        const double* phi = s.inf_phi;
         Vec3* u = b.u_acc.data();
         for (int m = 0; m < s.inf_count; ++m) u[idx[m]] += phi[m] * f;
         propagations_ += s.inf_count;

@@ -129,8 +129,14 @@ struct ContactSide {
   double sign = 1.0;
   /// the side's merged influence on its body's control points: a force F at the
   /// contact point moves control point m by phi_m F (eq. 8 weights folded into eq. 13),
-  /// entries [inf_begin, inf_begin + inf_count) of World::side_inf_idx / side_inf_phi
+  /// entries [inf_begin, inf_begin + inf_count) of World::side_inf_idx / side_inf_phi;
+  /// a side standing on one control point (weight 1: the query side of every contact)
+  /// reads that point's influence in its body's model instead (inf_begin = -1)
   int inf_begin = 0, inf_count = 0;
+  /// where the solver reads the merged influence (set at the end of the contact space,
+  /// valid until the next one)
+  const int* inf_idx = nullptr;
+  const double* inf_phi = nullptr;
   double w_deform = 0.0;  ///< this side's share of W_deform,cc (m/N, isotropic)
   Vec3 weights_at = Vec3::Zero();  ///< rest-frame point at which the eq. 8 weights were evaluated
 };
