@@ -218,6 +218,7 @@ void BuildContactSpace(World& w) {
         // would copy, bit for bit), and W_deform is its self compliance
         const int* idx;
         const double* phi;
+        ++w.profile.work.w_deform_direct;
         side.inf_begin = -1;
         side.inf_count = b.deform.Influence(side.idx[0], &idx, &phi);
         side.w_deform = phi[0];

@@ -223,6 +223,7 @@ struct StepWork {
   int w_blocks_built = 0;     ///< diagonal Delassus blocks W_cc computed
   int w_deform_sides = 0;     ///< contact sides whose W_deform term and merged influence were built
   int w_deform_reused = 0;    ///< of those, merged influences copied from the last step (same contact, same weights)
+  int w_deform_direct = 0;    ///< of those, sides on one control point, reading its influence in place (nothing merged)
   int weights_reused = 0;     ///< eq. 8 interpolations kept from the last step (anchor within reuse_anchor_tolerance)
   int local_solves_3d = 0;    ///< local Coulomb solves (normal and tangents)
   int local_solves_normal = 0;///< normal-only local solves (every contact frictionless)
