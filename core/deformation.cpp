@@ -102,28 +102,30 @@ double DeformableModel::Kernel(int i, int j) const {
 
 int DeformableModel::Interpolate(const Vec3& p, int near, int* idx, double* w, int max) const {
   if (!enabled() || near < 0 || near >= size() || max <= 0) return 0;
-  // gaussian weights with the control spacing as bandwidth (eq. 8)
+  // gaussian weights with the control spacing as bandwidth (eq. 8) of the `max`
+  // nearest candidates (the heaviest weights), chosen by squared distance so that
+  // only the kept ones pay for an exp (w holds squared distances until then)
   const double h2 = spacing_ * spacing_;
   int count = 0;
   double sum = 0.0;
   for (int k = nb_start_[near]; k < nb_start_[near + 1]; ++k) {
     const int i = nb_idx_[k];
-    const double wi = std::exp(-(cp_[i] - p).squaredNorm() / h2);
+    const double d2 = (cp_[i] - p).squaredNorm();
     if (count < max) {
       idx[count] = i;
-      w[count] = wi;
+      w[count] = d2;
       ++count;
     } else {
-      // keep the heaviest `max`
-      int lightest = 0;
+      int farthest = 0;
       for (int m = 1; m < count; ++m)
-        if (w[m] < w[lightest]) lightest = m;
-      if (wi > w[lightest]) {
-        idx[lightest] = i;
-        w[lightest] = wi;
+        if (w[m] > w[farthest]) farthest = m;
+      if (d2 < w[farthest]) {
+        idx[farthest] = i;
+        w[farthest] = d2;
       }
     }
   }
+  for (int m = 0; m < count; ++m) w[m] = std::exp(-w[m] / h2);
   for (int m = 0; m < count; ++m) sum += w[m];
   if (!(sum > 1e-300)) {
     idx[0] = near;
