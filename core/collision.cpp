@@ -313,14 +313,15 @@ void CollidePlane(int id_q, const SphereTree& tq, const Pose& pose_q, int id_p, 
   s->stack.emplace_back(tq.root(), 0);
   int tests = 0;
   s->touched_a.clear();
+  const TraversalNode* nodes = tq.traversal();
   while (!s->stack.empty()) {
     const int ni = s->stack.back().first;
     s->stack.pop_back();
-    const TreeNode& node = tq.node(ni);
+    const TraversalNode& node = nodes[ni];
     ++tests;
     if (n_q.dot(node.center) + offset > node.radius + params.contact_threshold) continue;
     if (node.IsLeaf()) {
-      s->touched_a.push_back(node.leaf);
+      s->touched_a.push_back(node.leaf());
     } else {
       s->stack.emplace_back(node.child[1], 0);
       s->stack.emplace_back(node.child[0], 0);
