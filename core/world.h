@@ -240,7 +240,8 @@ struct StepProfile {
   double fill_w_rigid = 0, fill_w_deform = 0, solve = 0, constrained_motion = 0, total = 0;
   int contacts = 0;
   int iterations = 0;
-  double residual = 0.0;
+  double residual = 0.0;      ///< Siconos error of the step's forces, or an upper bound of it (residual_bounded)
+  bool residual_bounded = false;  ///< the solve converged on a bound of the error (NsgsParams::accept_error_bound)
   bool converged = true;
   bool budget_stopped = false;  ///< the solve ended at WorldParams::step_time_budget_s, unconverged
   bool rejected = false;  ///< the step produced a non-finite value and was undone

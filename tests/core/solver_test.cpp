@@ -108,6 +108,45 @@ TEST(Nsgs, TimeBudgetStopsSweepingAndReportsTheExactErrorReached) {
   EXPECT_EQ((r_roomy - r_free).norm(), 0.0);
 }
 
+// Warm started at or near a solution, a sweep barely moves the forces: the bound of
+// the error is accepted without the exact pass, and it bounds the exact error. Far
+// from converged the bound is not accepted and the exact pass decides.
+TEST(Nsgs, AcceptedErrorBoundHoldsTheExactError) {
+  for (int contacts : {50, 200}) {
+    const FcProblem p = RandomRigidProblem(contacts, 3, 5);
+    FcSolveParams sp;
+    sp.nsgs.tolerance = 1e-12;  // far below the tolerance below: a sweep then barely moves r
+    sp.nsgs.max_iterations = 50000;
+    Eigen::VectorXd r;
+    ASSERT_TRUE(SolveFcProblem(p, sp, &r).nsgs.converged);
+    sp.nsgs.tolerance = 1e-6;
+    sp.nsgs.accept_error_bound = true;
+    for (double nudge : {0.0, 1e-9, 1e-7}) {
+      Eigen::VectorXd start = r;
+      for (int i = 0; i < start.size(); ++i) start[i] += nudge * ((i % 7) - 3);
+      const FcSolveResult res = SolveFcProblem(p, sp, &start);
+      ASSERT_TRUE(res.nsgs.converged) << contacts << " " << nudge;
+      const double exact = FcError(p, start);
+      EXPECT_LE(exact, res.nsgs.error * (1.0 + 1e-12)) << contacts << " " << nudge;
+      EXPECT_LE(res.nsgs.error, sp.nsgs.tolerance);
+      if (nudge == 0.0) {
+        EXPECT_TRUE(res.nsgs.error_bounded) << contacts;
+        EXPECT_EQ(res.nsgs.exact_checks, 0);
+        EXPECT_EQ(res.nsgs.iterations, 1);
+      }
+      if (!res.nsgs.error_bounded) {
+        EXPECT_NEAR(res.nsgs.error, exact, 1e-15);
+      }
+    }
+    // from zero forces the first sweeps change everything: no bound is accepted there
+    Eigen::VectorXd zero;
+    const FcSolveResult cold = SolveFcProblem(p, sp, &zero);
+    EXPECT_TRUE(cold.nsgs.converged);
+    EXPECT_GT(cold.nsgs.iterations, 1);
+    EXPECT_LE(FcError(p, zero), cold.nsgs.error * (1.0 + 1e-12));
+  }
+}
+
 TEST(LocalSolver, SlideFromAnAngleHintIsAsExactAsFromNone) {
   // the slide case first tries Newton on the slip angle from the hint; a hint
   // far from the root must still end in an exact solution (the scan takes over)

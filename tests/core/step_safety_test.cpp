@@ -121,3 +121,46 @@ TEST(StepSafety, NonFiniteStepIsRejectedAndThePreviousStateKept) {
 
 }  // namespace
 }  // namespace gs
+
+namespace gs {
+namespace {
+
+// At rest the step's solve converges in its first sweep on a bound of the error
+// (no exact pass); the bound holds the exact error of the step's problem.
+TEST(StepSafety, StepsAtRestReportABoundThatHoldsTheExactError) {
+  // a soft 6 cm box resting on the plane (awake: sleep off)
+  World w;
+  w.params.dt = 1e-3;
+  w.params.solver.tolerance = 1e-7;
+  w.params.solver.max_iterations = 200;
+  w.params.sleep.enabled = false;
+  test::AddPlane(w);
+  BodySpec box = test::SmallBox("box", Vec3(0, 0, 0.0301), 0.03);
+  box.deformation.model = EDeformation::Gaussian;
+  box.deformation.stiffness = 20000;
+  box.deformation.damping = 20;
+  box.deformation.influence_radius = 0.003;
+  ASSERT_GE(AddBody(w, box), 0);
+  w.Finalize();
+  for (int i = 0; i < 600; ++i) w.Step();
+  int bounded = 0, checked = 0;
+  for (int i = 0; i < 100; ++i) {
+    w.Step();
+    ASSERT_TRUE(w.profile.converged) << i;
+    if (!w.profile.residual_bounded) continue;
+    ++bounded;
+    EXPECT_LE(w.profile.residual, w.params.solver.tolerance);
+    if (i % 10 == 0) {
+      FcProblem p;
+      Eigen::VectorXd r;
+      AssembleContactProblem(w, &p, &r);
+      EXPECT_LE(FcError(p, r), w.profile.residual * (1.0 + 1e-9) + 1e-300) << i;
+      ++checked;
+    }
+  }
+  EXPECT_GT(bounded, 50);
+  EXPECT_GT(checked, 3);
+}
+
+}  // namespace
+}  // namespace gs
