@@ -199,6 +199,18 @@ std::vector<Case> Cases() {
                    {{"w_deform_sides", &StepWork::w_deform_sides},
                     {"w_deform_reused", &StepWork::w_deform_reused},
                     {"w_deform_direct", &StepWork::w_deform_direct}}});
+  // the resting stack's box/box pairs: traversed every step (as pairs that moved
+  // beyond the margin would be) against served from their leaf-pair caches
+  cases.push_back({"pair motion", "traversed", "cached",
+                   [](World& w) {
+                     Stack(w, false);
+                     w.params.collision.pair_cache_margin = 0.0;
+                   },
+                   [](World& w) { Stack(w, false); },
+                   400,
+                   {{"pairs_traversed", &StepWork::pairs_traversed},
+                    {"pairs_from_cache", &StepWork::pairs_from_cache},
+                    {"node_tests", &StepWork::node_tests}}});
   cases.push_back({"proximity", "2.05 cm apart", "10 cm apart",
                    [](World& w) { FallingBalls(w, 0.0205); },
                    [](World& w) { FallingBalls(w, 0.10); },

@@ -53,6 +53,8 @@ void DetectCollisions(World& w) {
                   &w.profile.collision, cache);
     }
   }
+  w.profile.work.pairs_from_cache = w.profile.collision.cache_hits;
+  w.profile.work.node_tests = w.profile.collision.node_pairs;
   w.profile.traverse = w.profile.collision.traverse_s;
   w.profile.interpenetration = w.profile.collision.project_s;
 }

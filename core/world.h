@@ -220,6 +220,8 @@ struct StepWork {
   int body_pairs = 0;         ///< body pairs that both can move or deform (candidates of the broad phase)
   int pair_tests = 0;         ///< bounding-sphere tests of the broad phase (one per candidate pair)
   int pairs_traversed = 0;    ///< body pairs whose trees were traversed (bounding spheres overlap)
+  int pairs_from_cache = 0;   ///< of those, pairs of trees served by their leaf-pair cache (no descent)
+  int node_tests = 0;         ///< sphere tests of collision detection (descents and cached lists)
   int w_blocks_built = 0;     ///< diagonal Delassus blocks W_cc computed
   int w_deform_sides = 0;     ///< contact sides whose W_deform term and merged influence were built
   int w_deform_reused = 0;    ///< of those, merged influences copied from the last step (same contact, same weights)

@@ -51,6 +51,15 @@ TEST(BenchSkip, QuickRunShowsEachSkip) {
             JsonField(*reuse, "without_w_deform_sides"));
   EXPECT_GE(JsonField(*reuse, "without_w_deform_reused") + JsonField(*reuse, "without_w_deform_direct"),
             0.9 * JsonField(*reuse, "without_w_deform_sides"));
+  const std::string* cached = Feature(lines, "pair motion");
+  ASSERT_NE(cached, nullptr);
+  EXPECT_EQ(JsonField(*cached, "with_pairs_from_cache"), 0);
+  EXPECT_GT(JsonField(*cached, "with_pairs_traversed"), 0);
+  // at rest the stack's box/box pairs are served from their lists (the box/table pair
+  // has none: planes are not cached), with fewer sphere tests
+  EXPECT_GT(JsonField(*cached, "without_pairs_from_cache"), 0);
+  EXPECT_LT(JsonField(*cached, "without_pairs_from_cache"), JsonField(*cached, "without_pairs_traversed"));
+  EXPECT_LT(JsonField(*cached, "without_node_tests"), JsonField(*cached, "with_node_tests"));
   const std::string* proximity = Feature(lines, "proximity");
   ASSERT_NE(proximity, nullptr);
   EXPECT_GT(JsonField(*proximity, "with_pairs_traversed"), 0);
