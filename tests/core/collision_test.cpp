@@ -9,6 +9,7 @@
 
 #include "core/body_geometry.h"
 #include "core/point_grid.h"
+#include "shapes.h"
 
 namespace gs {
 namespace {
@@ -25,21 +26,6 @@ struct Fixture {
     return s;
   }
 };
-
-// the paper's 6 cm box and an 8 x 8 x 11 mm fingertip ellipsoid
-ShapeDesc PaperBox() {
-  ShapeDesc box;
-  box.type = EShape::Box;
-  box.half_extents = Vec3::Constant(0.03);
-  return box;
-}
-
-ShapeDesc Fingertip() {
-  ShapeDesc tip;
-  tip.type = EShape::Ellipsoid;
-  tip.semi_axes = Vec3(0.008, 0.008, 0.011);
-  return tip;
-}
 
 std::unique_ptr<Fixture> Make(const ShapeDesc& shape, int points, int cps, uint64_t seed) {
   auto f = std::make_unique<Fixture>();
@@ -142,8 +128,8 @@ void Compare(const Fixture& a, const Pose& pa, const Fixture& b, const Pose& pb,
 }
 
 TEST(Collision, FingertipAgainstPaperBoxAgreesWithBruteForce) {
-  const ShapeDesc box = PaperBox();
-  const ShapeDesc tip = Fingertip();
+  const ShapeDesc box = test::CubeShape(0.06);
+  const ShapeDesc tip = test::FingertipEllipsoid();
   auto fb = Make(box, 36000, 4800, 1);
   auto ft = Make(tip, 2400, 320, 2);
   std::mt19937_64 rng(5);
@@ -317,8 +303,8 @@ std::map<uint64_t, std::pair<double, Vec3>> ByKey(const ContactBuffer& b) {
 // traversal gives, and the cache is rebuilt exactly when the motion or the growth
 // of the radii outruns its margin.
 TEST(Collision, PairCacheGivesTheContactsOfAFreshTraversal) {
-  const ShapeDesc box = PaperBox();
-  const ShapeDesc tip = Fingertip();
+  const ShapeDesc box = test::CubeShape(0.06);
+  const ShapeDesc tip = test::FingertipEllipsoid();
   auto fb = Make(box, 9000, 1200, 3);
   auto ft = Make(tip, 2400, 320, 4);
   CollisionParams params;

@@ -7,6 +7,7 @@
 
 #include "core/body_geometry.h"
 #include "core/point_grid.h"
+#include "shapes.h"
 
 namespace gs {
 namespace {
@@ -19,20 +20,6 @@ BodyGeometry MakeGeometry(const ShapeDesc& shape, int points, int control_points
   opt.seed = 3;
   EXPECT_EQ(BuildShapeGeometry(shape, opt, &g), EGeometryError::None);
   return g;
-}
-
-ShapeDesc Ellipsoid() {
-  ShapeDesc s;
-  s.type = EShape::Ellipsoid;
-  s.semi_axes = Vec3(0.008, 0.008, 0.011);
-  return s;
-}
-
-ShapeDesc Cube(double edge) {
-  ShapeDesc s;
-  s.type = EShape::Box;
-  s.half_extents = Vec3::Constant(edge / 2);
-  return s;
 }
 
 // every point belongs to exactly one leaf, every node bounds its points
@@ -106,21 +93,21 @@ void CheckCoverage(const BodyGeometry& g, const ShapeDesc& shape, int samples) {
 }
 
 TEST(SphereTree, EllipsoidFingertipStructureAndCoverage) {
-  const ShapeDesc shape = Ellipsoid();
+  const ShapeDesc shape = test::FingertipEllipsoid();
   const BodyGeometry g = MakeGeometry(shape, 2400, 320);
   CheckStructure(g, 320);
   CheckCoverage(g, shape, 20000);
 }
 
 TEST(SphereTree, PaperBoxStructureAndCoverage) {
-  const ShapeDesc shape = Cube(0.06);
+  const ShapeDesc shape = test::CubeShape(0.06);
   const BodyGeometry g = MakeGeometry(shape, 36000, 4800);
   CheckStructure(g, 4800);
   CheckCoverage(g, shape, 40000);
 }
 
 TEST(SphereTree, ControlPointsLieOnTheSurface) {
-  const ShapeDesc shape = Ellipsoid();
+  const ShapeDesc shape = test::FingertipEllipsoid();
   const BodyGeometry g = MakeGeometry(shape, 2400, 320);
   for (int l = 0; l < g.tree.num_leaves(); ++l) {
     const double d = AnalyticDistance(shape, g.tree.control_point(l));
@@ -129,7 +116,7 @@ TEST(SphereTree, ControlPointsLieOnTheSurface) {
 }
 
 TEST(SphereTree, NeighbourhoodHoldsEveryPointWithinRadiusPlusBorder) {
-  const BodyGeometry g = MakeGeometry(Ellipsoid(), 2400, 320);
+  const BodyGeometry g = MakeGeometry(test::FingertipEllipsoid(), 2400, 320);
   for (int l = 0; l < g.tree.num_leaves(); l += 7) {
     int count = 0;
     const int* idx = g.tree.neighbourhood(l, &count);
@@ -143,7 +130,7 @@ TEST(SphereTree, NeighbourhoodHoldsEveryPointWithinRadiusPlusBorder) {
 }
 
 TEST(SphereTree, RefitTouchesOnlyDeformedSubtreesAndEnclosesTheGrowth) {
-  BodyGeometry g = MakeGeometry(Ellipsoid(), 2400, 320);
+  BodyGeometry g = MakeGeometry(test::FingertipEllipsoid(), 2400, 320);
   SphereTree& t = g.tree;
   const int leaves = t.num_leaves();
   std::vector<Vec3> u(leaves, Vec3::Zero());
@@ -193,7 +180,7 @@ TEST(SphereTree, RefitTouchesOnlyDeformedSubtreesAndEnclosesTheGrowth) {
 TEST(SphereTree, PatchErrorBoundHoldsBetweenItsSamples) {
   // (shape, share of the leaves that must be bounded): a coarse cube's leaves near
   // its edges see the edge within their kernel's reach and are not trusted
-  for (const auto& [shape, share] : {std::pair<ShapeDesc, double>{Ellipsoid(), 0.5}, {Cube(0.03), 0.1}}) {
+  for (const auto& [shape, share] : {std::pair<ShapeDesc, double>{test::FingertipEllipsoid(), 0.5}, {test::CubeShape(0.03), 0.1}}) {
     const BodyGeometry g = MakeGeometry(shape, 2400, 320);
     const SphereTree& t = g.tree;
     const double h = g.mls.bandwidth;
