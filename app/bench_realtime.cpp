@@ -1,5 +1,5 @@
 // `graspsim bench realtime [--json] [--seconds S] [--scene FILE] [--rt-priority N]
-// [--cpu N] [--spin-us N] [--step-budget F]`: the performance target of issue 6. A tracked session
+// [--cpu N] [--spin-us N] [--step-budget F] [--steps-csv FILE]`: the performance target of issue 6. A tracked session
 // of the paper's grasp (config/tracked_paper_grasp.yaml by default; the synthetic
 // hand of `graspsim send --synthetic`: reach, close, lift, hold, release, its
 // 2.9 s cycle looped to S seconds at 100 Hz) is replayed at the recorded pace:
@@ -19,12 +19,16 @@
 // deadline delays but never drops simulated time. As in live, each step must end
 // F timesteps into its slot (default 0.8): the solver stops sweeping when the rest of
 // that would not hold another sweep; such steps are counted (budget stops) with
-// the largest solver error reached.
+// the largest solver error reached. --steps-csv writes every step of both runs
+// (loop time, lateness, stage times, contacts, sweeps, the step's work counters)
+// to see what made a step late.
 
 #include <algorithm>
 #include <chrono>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <memory>
 #include <string>
 #include <vector>
@@ -76,6 +80,17 @@ Session MakeSession(double seconds) {
   return s;
 }
 
+// one step of a run, for --steps-csv
+struct StepTrace {
+  int64_t k = 0;
+  float wake_ms = 0, loop_ms = 0, late_ms = 0;
+  float free_motion = 0, traverse = 0, interpenetration = 0, refit = 0, fill_w_rigid = 0, fill_w_deform = 0,
+        solve = 0, constrained_motion = 0, total = 0;  // ms
+  int contacts = 0, iterations = 0, cache_hits = 0, cache_builds = 0;
+  StepWork work;
+  bool frame = false, budget_stopped = false;
+};
+
 struct RunResult {
   bool render = false;
   double dt = 0.0;
@@ -98,10 +113,11 @@ struct RunResult {
   double residual_max = 0.0;    ///< largest solver error of a step
   int lifts = 0;                ///< cycles in which the box rose 2 cm above its start
   size_t datagrams = 0;
+  std::vector<StepTrace> trace;  ///< every step, when asked for
 };
 
 bool RunOnce(const std::string& scene, const Session& session, double seconds, bool render, const PacingOptions& po,
-             double step_budget, RunResult* out, std::string* error) {
+             double step_budget, bool trace, RunResult* out, std::string* error) {
   auto sim = std::make_unique<TrackedSim>();
   if (!sim->Load(scene, error)) return false;
   World& w = sim->world();
@@ -124,6 +140,7 @@ bool RunOnce(const std::string& scene, const Session& session, double seconds, b
   bool lifted = false;
   const int64_t period = static_cast<int64_t>(std::llround(dt * 1e9));
   *out = RunResult();
+  if (trace) out->trace.reserve(static_cast<size_t>(steps));
   out->render = render;
   out->dt = dt;
   // after the render thread started, so that it keeps normal scheduling
@@ -152,7 +169,8 @@ bool RunOnce(const std::string& scene, const Session& session, double seconds, b
     out->unconverged += w.profile.converged ? 0 : 1;
     out->budget_stops += w.profile.budget_stopped ? 1 : 0;
     out->residual_max = std::max(out->residual_max, w.profile.residual);
-    if (recorder.FrameDue(w)) sim->HudText(tracker_text, sizeof tracker_text);
+    const bool frame = recorder.FrameDue(w);
+    if (frame) sim->HudText(tracker_text, sizeof tracker_text);
     recorder.AfterStep(w, tracker_text);
     const int64_t end = MonotonicNs();
     const int64_t late = end - (start + (k + 1) * period);
@@ -162,6 +180,31 @@ bool RunOnce(const std::string& scene, const Session& session, double seconds, b
     if (late > 0) {
       ++out->missed;
       out->worst_late_ms = std::max(out->worst_late_ms, 1e-6 * static_cast<double>(late));
+    }
+    if (trace) {
+      const StepProfile& p = w.profile;
+      StepTrace t;
+      t.k = k;
+      t.wake_ms = static_cast<float>(wake_ms.back());
+      t.loop_ms = static_cast<float>(1e-6 * static_cast<double>(end - begin));
+      t.late_ms = static_cast<float>(1e-6 * static_cast<double>(late));
+      t.free_motion = static_cast<float>(1e3 * p.free_motion);
+      t.traverse = static_cast<float>(1e3 * p.traverse);
+      t.interpenetration = static_cast<float>(1e3 * p.interpenetration);
+      t.refit = static_cast<float>(1e3 * p.refit);
+      t.fill_w_rigid = static_cast<float>(1e3 * p.fill_w_rigid);
+      t.fill_w_deform = static_cast<float>(1e3 * p.fill_w_deform);
+      t.solve = static_cast<float>(1e3 * p.solve);
+      t.constrained_motion = static_cast<float>(1e3 * p.constrained_motion);
+      t.total = static_cast<float>(1e3 * p.total);
+      t.contacts = p.contacts;
+      t.iterations = p.iterations;
+      t.cache_hits = p.collision.cache_hits;
+      t.cache_builds = p.collision.cache_builds;
+      t.work = p.work;
+      t.frame = frame;
+      t.budget_stopped = p.budget_stopped;
+      out->trace.push_back(t);
     }
     step_ms.push_back(1e3 * w.profile.total);
     loop_ms.push_back(1e-6 * static_cast<double>(end - begin));
@@ -225,6 +268,40 @@ EmptyResult RunEmpty(double seconds, double dt, const PacingOptions& po) {
   return r;
 }
 
+// both runs' traces as CSV, written to a temporary file renamed over `path` once whole
+bool WriteTrace(const std::string& path, const RunResult& with, const RunResult& without, std::string* error) {
+  const std::string tmp = path + ".tmp";
+  FILE* f = std::fopen(tmp.c_str(), "w");
+  if (!f) {
+    *error = "cannot write --steps-csv file " + tmp + ": " + std::strerror(errno);
+    return false;
+  }
+  std::fprintf(f, "rendering,step,wake_ms,loop_ms,late_ms,free_motion_ms,traverse_ms,interpenetration_ms,refit_ms,"
+                  "fill_w_rigid_ms,fill_w_deform_ms,solve_ms,constrained_motion_ms,step_ms,contacts,sweeps,"
+                  "cache_hits,cache_builds,frame,budget_stop,node_tests,w_blocks_built,w_deform_sides,"
+                  "w_deform_reused,w_deform_direct,weights_reused,deformed_points,bodies_asleep,contacts_reused\n");
+  for (const RunResult* r : {&with, &without}) {
+    for (const StepTrace& t : r->trace) {
+      std::fprintf(f, "%d,%lld,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%d,%d,%d,%d,%d,%d,",
+                   r->render ? 1 : 0, static_cast<long long>(t.k), t.wake_ms, t.loop_ms, t.late_ms, t.free_motion,
+                   t.traverse, t.interpenetration, t.refit, t.fill_w_rigid, t.fill_w_deform, t.solve,
+                   t.constrained_motion, t.total, t.contacts, t.iterations, t.cache_hits, t.cache_builds,
+                   t.frame ? 1 : 0, t.budget_stopped ? 1 : 0);
+      const StepWork& k = t.work;
+      std::fprintf(f, "%d,%d,%d,%d,%d,%d,%d,%d,%d\n", k.node_tests, k.w_blocks_built, k.w_deform_sides,
+                   k.w_deform_reused, k.w_deform_direct, k.weights_reused, k.deformed_points, k.bodies_asleep,
+                   k.contacts_reused);
+    }
+  }
+  const bool ok = std::ferror(f) == 0;
+  if (std::fclose(f) != 0 || !ok || std::rename(tmp.c_str(), path.c_str()) != 0) {
+    *error = "cannot write --steps-csv file " + path + ": " + std::strerror(errno);
+    std::remove(tmp.c_str());
+    return false;
+  }
+  return true;
+}
+
 void PrintJson(const RunResult& r, double seconds) {
   std::printf("{\"bench\":\"realtime\",\"rendering\":%s,\"seconds\":%g,\"steps\":%lld,\"missed_deadlines\":%lld,"
               "\"late_runs\":%lld,\"overlong_steps\":%lld,"
@@ -258,8 +335,10 @@ int RunBenchRealtime(const BenchOptions& opt) {
   po.priority = opt.rt_priority;
   po.cpu = opt.cpu;
   po.spin_ns = static_cast<int64_t>(std::llround(opt.spin_us * 1e3));
-  if (!RunOnce(scene, session, seconds, true, po, opt.step_budget, &with, &error) ||
-      !RunOnce(scene, session, seconds, false, po, opt.step_budget, &without, &error)) {
+  const bool trace = !opt.steps_csv.empty();
+  if (!RunOnce(scene, session, seconds, true, po, opt.step_budget, trace, &with, &error) ||
+      !RunOnce(scene, session, seconds, false, po, opt.step_budget, trace, &without, &error) ||
+      (trace && !WriteTrace(opt.steps_csv, with, without, &error))) {
     std::fprintf(stderr, "bench realtime: %s\n", error.c_str());
     return 3;
   }

@@ -51,6 +51,9 @@ void AddBenchCommand(CLI::App& app, int* exit_code) {
   realtime->add_option("--cpu", opt->cpu,
                        "the simulation loop's core; rendering runs on the others (-1: no pinning)")
       ->check(CLI::Range(-1, 1023));
+  realtime->add_option("--steps-csv", opt->steps_csv,
+                       "write one line per step of both runs (rendering or not, loop time, lateness, stage times, contacts, "
+                       "sweeps, cache rebuilds) to this CSV file, to see what made a step late");
   realtime->add_option("--scene", opt->scene, "a scene with a tracker section (default config/tracked_paper_grasp.yaml, the paper's densities)");
   CLI::App* tradeoff = add("tradeoff",
                             "run time against error for every knob (points, control points, bandwidth, GS tolerance "

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <chrono>
 
+#include "core/float_mode.h"
+
 namespace gs {
 
 CollisionShape Body::Shape() const {
@@ -182,6 +184,7 @@ void World::Finalize() {
 }
 
 void World::Step() {
+  const FlushSubnormals flush;  // core/float_mode.h: decaying motions must not slow the step down
   using Clock = std::chrono::steady_clock;
   const auto t0 = Clock::now();
   step_started_ = t0;

@@ -1,5 +1,6 @@
-// The step's guarantees: no allocation once warmed up, and a step that would
-// produce NaN or Inf is rejected with the previous state kept.
+// The step's guarantees: no allocation once warmed up, a step that would
+// produce NaN or Inf is rejected with the previous state kept, and no subnormal
+// number survives a step.
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -7,6 +8,7 @@
 #include <cstdlib>
 #include <new>
 
+#include "core/float_mode.h"
 #include "core/world.h"
 #include "soft_bodies.h"
 
@@ -160,6 +162,64 @@ TEST(StepSafety, StepsAtRestReportABoundThatHoldsTheExactError) {
   }
   EXPECT_GT(bounded, 50);
   EXPECT_GT(checked, 3);
+}
+
+}  // namespace
+}  // namespace gs
+
+namespace gs {
+namespace {
+
+bool IsSubnormal(double x) { return std::fpclassify(x) == FP_SUBNORMAL; }
+
+// the guard flushes subnormal operands and results inside its scope only
+TEST(FloatMode, GuardFlushesSubnormalsInItsScopeOnly) {
+  // without SSE's MXCSR (not x86) the guard does nothing and there is nothing to check
+  if (!FlushSubnormals::kSupported) GTEST_SKIP() << "no MXCSR on this platform: subnormals are not flushed";
+  volatile double tiny = 1e-310;  // subnormal (smallest normal: 2.2e-308)
+  volatile double half = 0.5;
+  ASSERT_TRUE(IsSubnormal(tiny));
+  const double before = tiny * half;
+  EXPECT_TRUE(IsSubnormal(before));
+  {
+    const FlushSubnormals flush;
+    const double inside = tiny * half;         // subnormal operand: read as zero
+    EXPECT_EQ(inside, 0.0);
+    volatile double small = 1e-300;
+    const double underflow = small * 1e-10;    // would-be subnormal result: zero
+    EXPECT_EQ(underflow, 0.0);
+  }
+  EXPECT_EQ(tiny * half, before);  // the caller's mode is back
+}
+
+// A deformable body whose displacements decay into the subnormal range (a body
+// coming to rest under damping) leaves the step with them at zero, and the
+// caller's floating-point mode is untouched: the step's arithmetic never runs
+// on subnormals, which cost some hundred cycles per operation.
+TEST(StepSafety, DecayedDisplacementsLeaveTheStepAtZero) {
+  if (!FlushSubnormals::kSupported) GTEST_SKIP() << "no MXCSR on this platform: subnormals are not flushed";
+  World w;
+  w.params.dt = 1e-3;
+  w.params.gravity = Vec3::Zero();
+  const int ball = AddBody(w, test::SoftBall(Vec3(0, 0, 0.5)));
+  ASSERT_GE(ball, 0);
+  w.Finalize();
+  w.Step();
+  Body& b = w.bodies[ball];
+  ASSERT_FALSE(b.u.empty());
+  for (Vec3& u : b.u) u = Vec3(1e-310, -3e-310, 2e-309);  // subnormal displacements
+  w.WakeAll();
+  w.Step();
+  int subnormal = 0, nonzero = 0;
+  for (const Vec3& u : b.u)
+    for (int i = 0; i < 3; ++i) {
+      subnormal += IsSubnormal(u[i]) ? 1 : 0;
+      nonzero += u[i] != 0.0 ? 1 : 0;
+    }
+  EXPECT_EQ(subnormal, 0);
+  EXPECT_EQ(nonzero, 0);
+  volatile double tiny = 1e-310;
+  EXPECT_TRUE(IsSubnormal(tiny * 0.5));  // the step restored the caller's mode
 }
 
 }  // namespace
