@@ -31,6 +31,7 @@
 #include <cstring>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "app/bench.h"
@@ -268,14 +269,11 @@ EmptyResult RunEmpty(double seconds, double dt, const PacingOptions& po) {
   return r;
 }
 
-// both runs' traces as CSV, written to a temporary file renamed over `path` once whole
-bool WriteTrace(const std::string& path, const RunResult& with, const RunResult& without, std::string* error) {
+// both runs' traces as CSV into `f` (opened on path + ".tmp" before the runs, so
+// that a path that cannot be written is said at once), renamed over `path` once whole
+bool WriteTrace(FILE* f, const std::string& path, const RunResult& with, const RunResult& without,
+                std::string* error) {
   const std::string tmp = path + ".tmp";
-  FILE* f = std::fopen(tmp.c_str(), "w");
-  if (!f) {
-    *error = "cannot write --steps-csv file " + tmp + ": " + std::strerror(errno);
-    return false;
-  }
   std::fprintf(f, "rendering,step,wake_ms,loop_ms,late_ms,free_motion_ms,traverse_ms,interpenetration_ms,refit_ms,"
                   "fill_w_rigid_ms,fill_w_deform_ms,solve_ms,constrained_motion_ms,step_ms,contacts,sweeps,"
                   "cache_hits,cache_builds,frame,budget_stop,node_tests,w_blocks_built,w_deform_sides,"
@@ -336,9 +334,19 @@ int RunBenchRealtime(const BenchOptions& opt) {
   po.cpu = opt.cpu;
   po.spin_ns = static_cast<int64_t>(std::llround(opt.spin_us * 1e3));
   const bool trace = !opt.steps_csv.empty();
+  FILE* trace_file = nullptr;
+  if (trace && !(trace_file = std::fopen((opt.steps_csv + ".tmp").c_str(), "w"))) {
+    std::fprintf(stderr, "bench realtime: cannot write --steps-csv file %s.tmp: %s\n", opt.steps_csv.c_str(),
+                 std::strerror(errno));
+    return 3;
+  }
   if (!RunOnce(scene, session, seconds, true, po, opt.step_budget, trace, &with, &error) ||
       !RunOnce(scene, session, seconds, false, po, opt.step_budget, trace, &without, &error) ||
-      (trace && !WriteTrace(opt.steps_csv, with, without, &error))) {
+      (trace && !WriteTrace(std::exchange(trace_file, nullptr), opt.steps_csv, with, without, &error))) {
+    if (trace_file) {  // a run failed: the trace is not written
+      std::fclose(trace_file);
+      std::remove((opt.steps_csv + ".tmp").c_str());
+    }
     std::fprintf(stderr, "bench realtime: %s\n", error.c_str());
     return 3;
   }

@@ -82,6 +82,68 @@ TEST(BenchRealtime, TwoSecondsGiveConsistentCounts) {
   EXPECT_NE(last.find("\"target_met\""), std::string::npos) << last;
 }
 
+// --steps-csv: one line per step of each run, rendering first, its late steps
+// those the run counted as missed deadlines
+TEST(BenchRealtime, StepsCsvHoldsEveryStepOfBothRuns) {
+  const std::string csv = std::string(::testing::TempDir()) + "/bench_realtime_steps.csv";
+  std::remove(csv.c_str());
+  const std::vector<std::string> lines =
+      RunJsonLines("bench realtime --seconds 0.5 --json --steps-csv " + csv + " --scene " +
+                       std::string(GRASPSIM_SOURCE_DIR) + "/config/tracked_hand.yaml",
+                   "bench_realtime_steps.json");
+  ASSERT_EQ(lines.size(), 4u);
+  FILE* f = std::fopen(csv.c_str(), "r");
+  ASSERT_NE(f, nullptr) << csv;
+  char buf[4096];
+  ASSERT_NE(std::fgets(buf, sizeof buf, f), nullptr);
+  const std::string header = buf;
+  EXPECT_EQ(header.rfind("rendering,step,wake_ms,loop_ms,late_ms,", 0), 0u) << header;
+  int columns = 1;
+  for (char c : header) columns += c == ',' ? 1 : 0;
+  int rows[2] = {0, 0}, late[2] = {0, 0}, order_errors = 0;
+  bool saw_without = false;
+  while (std::fgets(buf, sizeof buf, f)) {
+    int fields = 1;
+    for (const char* c = buf; *c; ++c) fields += *c == ',' ? 1 : 0;
+    EXPECT_EQ(fields, columns) << buf;
+    int rendering = -1;
+    long long step = -1;
+    double wake = 0, loop = -1, late_ms = 0;
+    ASSERT_EQ(std::sscanf(buf, "%d,%lld,%lf,%lf,%lf", &rendering, &step, &wake, &loop, &late_ms), 5) << buf;
+    ASSERT_TRUE(rendering == 0 || rendering == 1) << buf;
+    if (rendering == 0) saw_without = true;
+    if (rendering == 1 && saw_without) ++order_errors;  // the rendering run comes first
+    EXPECT_EQ(step, rows[rendering]) << buf;             // every step, in order
+    EXPECT_GT(loop, 0.0) << buf;
+    ++rows[rendering];
+    late[rendering] += late_ms > 0.0 ? 1 : 0;
+  }
+  std::fclose(f);
+  EXPECT_EQ(order_errors, 0);
+  EXPECT_EQ(rows[1], 500);
+  EXPECT_EQ(rows[0], 500);
+  EXPECT_EQ(late[0], JsonField(lines[0], "missed_deadlines"));
+  EXPECT_EQ(late[1], JsonField(lines[1], "missed_deadlines"));
+}
+
+// a file that cannot be written is said, with its name, and no run is lost silently
+TEST(BenchRealtime, UnwritableStepsCsvIsAClearError) {
+  const std::string err = std::string(::testing::TempDir()) + "/bench_realtime_csv_err.txt";
+  const std::string cmd = std::string(GRASPSIM_BINARY) +
+                          " bench realtime --seconds 0.1 --steps-csv /nonexistent-dir/steps.csv --scene " +
+                          std::string(GRASPSIM_SOURCE_DIR) + "/config/tracked_hand.yaml > /dev/null 2> " + err;
+  const int rc = std::system(cmd.c_str());
+  ASSERT_TRUE(WIFEXITED(rc));
+  EXPECT_EQ(WEXITSTATUS(rc), 3);
+  FILE* f = std::fopen(err.c_str(), "r");
+  ASSERT_NE(f, nullptr);
+  char buf[1024] = "";
+  const size_t n = std::fread(buf, 1, sizeof buf - 1, f);
+  std::fclose(f);
+  buf[n] = 0;
+  EXPECT_NE(std::string(buf).find("/nonexistent-dir/steps.csv"), std::string::npos) << buf;
+}
+
 TEST(BenchRealtime, RefusesASceneWithoutATracker) {
   const std::string cmd = std::string(GRASPSIM_BINARY) + " bench realtime --seconds 0.2 --scene " +
                           std::string(GRASPSIM_SOURCE_DIR) + "/config/paper_box_grasp.yaml > /dev/null 2>&1";
