@@ -169,7 +169,8 @@ void SolveContacts(World& w) {
   for (int c = 0; c < n; ++c) {
     if (frictionless) w.rows[c].r = Vec3(std::max(0.0, w.rows[c].r[0]), 0.0, 0.0);
     w.solve_r[c] = w.rows[c].r;
-    op.ApplyDelta(c, w.rows[c].r);
+    const Vec3& r0 = w.rows[c].r;
+    if (r0[0] != 0.0 || r0[1] != 0.0 || r0[2] != 0.0) op.ApplyDelta(c, r0);  // no warm start: nothing to move
   }
   if (n > 0) {
     NsgsParams params = w.params.solver;
