@@ -19,7 +19,7 @@
 // deadline delays but never drops simulated time. As in live, each step must end
 // F timesteps into its slot (default 0.8): the solver stops sweeping when the rest of
 // that would not hold another sweep; such steps are counted (budget stops) with
-// the largest solver error reached. --steps-csv writes every step of both runs
+// the largest solver error reached (for those, the last sweep's estimate: core/nsgs.h). --steps-csv writes every step of both runs
 // (loop time, lateness, stage times, contacts, sweeps, the step's work counters)
 // to see what made a step late.
 
@@ -111,7 +111,7 @@ struct RunResult {
   int max_contacts = 0;
   int64_t unconverged = 0;      ///< steps whose solve did not reach the scene's tolerance
   int64_t budget_stops = 0;     ///< of those, ended by the step budget
-  double residual_max = 0.0;    ///< largest solver error of a step
+  double residual_max = 0.0;    ///< largest solver error of a step (estimated where the budget stopped it)
   int lifts = 0;                ///< cycles in which the box rose 2 cm above its start
   size_t datagrams = 0;
   std::vector<StepTrace> trace;  ///< every step, when asked for

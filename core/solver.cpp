@@ -189,6 +189,7 @@ void SolveContacts(World& w) {
     w.profile.converged = res.converged;
     w.profile.budget_stopped = res.budget_stopped;
     w.profile.residual_bounded = res.error_bounded;
+    w.profile.residual_estimated = res.error_estimated;
     (frictionless ? w.profile.work.local_solves_normal : w.profile.work.local_solves_3d) += n * res.iterations;
   }
   w.profile.work.propagations += op.propagations();

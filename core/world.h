@@ -242,8 +242,9 @@ struct StepProfile {
   double fill_w_rigid = 0, fill_w_deform = 0, solve = 0, constrained_motion = 0, total = 0;
   int contacts = 0;
   int iterations = 0;
-  double residual = 0.0;      ///< Siconos error of the step's forces, or an upper bound of it (residual_bounded)
+  double residual = 0.0;      ///< Siconos error of the step's forces, an upper bound of it (residual_bounded) or its estimate (residual_estimated)
   bool residual_bounded = false;  ///< the solve converged on a bound of the error (NsgsParams::accept_error_bound)
+  bool residual_estimated = false;  ///< the solve ran out of its time budget: the residual is the last sweep's estimate
   bool converged = true;
   bool budget_stopped = false;  ///< the solve ended at WorldParams::step_time_budget_s, unconverged
   bool rejected = false;  ///< the step produced a non-finite value and was undone

@@ -85,17 +85,21 @@ TEST(StepSafety, StepBudgetEndsTheSolveEarlyCountsItAndAllocatesNothing) {
   g_counting = false;
   EXPECT_EQ(g_allocations.load(), 0);
   EXPECT_EQ(w.budget_stopped_steps, 50);
-  // out of time, the solve reports a bound of its error (no exact pass): at least the exact error
+  // out of time, the solve reports its last sweep's estimate (no exact pass)
   for (int i = 0; i < 5; ++i) {
     w.Step();
     ASSERT_TRUE(w.profile.budget_stopped) << i;
-    EXPECT_TRUE(w.profile.residual_bounded) << i;
+    EXPECT_TRUE(w.profile.residual_estimated) << i;
+    EXPECT_FALSE(w.profile.residual_bounded) << i;
     FcProblem p;
     Eigen::VectorXd r;
     AssembleContactProblem(w, &p, &r);
     const double exact = FcError(p, r);
+    // the estimate is the error of the mixed iterate the sweep read, not of its
+    // result: the same order as the exact error (here 1.5-2.2x it), not a bound
     EXPECT_GT(exact, w.params.solver.tolerance) << i;
-    EXPECT_LE(exact, w.profile.residual * (1.0 + 1e-9)) << i;
+    EXPECT_GT(w.profile.residual, 0.1 * exact) << i;
+    EXPECT_LT(w.profile.residual, 10.0 * exact) << i;
   }
   EXPECT_EQ(w.budget_stopped_steps, 55);
   EXPECT_GE(w.unconverged_steps, 50);
