@@ -63,9 +63,9 @@ struct NsgsParams {
   /// 2-Lipschitz in r and (1 + mu)-Lipschitz in u. The reported error is then that
   /// bound, at least the exact error (`error_bounded`). A step at rest (dr ~ 0)
   /// saves its exact pass, a third of its solve. A solve stopped by its time budget
-  /// skips the exact pass too (the step is short of time already) and reports the
-  /// in-sweep estimate, unconverged (`error_estimated`; the bound, loose while the
-  /// forces still move, would say little). Off for explicit problems (files,
+  /// with no time left for the exact pass either skips it and reports the in-sweep
+  /// estimate, unconverged (`error_estimated`; the bound, loose while the forces
+  /// still move, would say little). Off for explicit problems (files,
   /// benches), whose reported error is the exact one; the simulator's step sets it.
   bool accept_error_bound = false;
 };
@@ -78,8 +78,9 @@ struct NsgsResult {
   int extrapolations = 0;  ///< extrapolation trials that won
   bool budget_stopped = false;  ///< stopped by the time budget before the tolerance was met
   bool error_bounded = false;   ///< `error` is an upper bound of the exact error (accept_error_bound)
-  /// `error` is the last sweep's in-sweep estimate (a solve stopped by its budget
-  /// with accept_error_bound): the error of the mixed iterate, not a bound
+  /// `error` is the last sweep's in-sweep estimate (a solve stopped by its budget,
+  /// with no time for the exact pass, under accept_error_bound): the error of the
+  /// mixed iterate the sweep read, not a bound
   bool error_estimated = false;
 };
 
@@ -93,6 +94,13 @@ class NsgsBudget {
     if (budget_s_ <= 0.0 || sweeps <= 0) return false;
     const double spent = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count();
     return spent + 2.0 * spent / sweeps > budget_s_;
+  }
+  /// After `sweeps` sweeps: true when an exact error pass alone (at most one sweep's
+  /// cost) still fits in the budget.
+  bool HoldsErrorPass(int sweeps) const {
+    if (budget_s_ <= 0.0 || sweeps <= 0) return true;
+    const double spent = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count();
+    return spent + spent / sweeps <= budget_s_;
   }
 
  private:
@@ -266,9 +274,9 @@ NsgsResult SolveNsgs(Op& op, Vec3* r, const NsgsParams& p, NsgsScratch& s) {
       }
     }
     const bool out_of_time = budget.Exhausted(res.iterations);
-    if (out_of_time && p.accept_error_bound && estimate > p.tolerance) {
-      // out of time: the sweep's own estimate says how far the forces are, without
-      // the exact pass that would cost half a sweep more on a step already late
+    if (out_of_time && p.accept_error_bound && estimate > p.tolerance && !budget.HoldsErrorPass(res.iterations)) {
+      // out of time even for the exact pass (up to a sweep's cost on a step already
+      // late): the sweep's own estimate says how far the forces are
       res.error = estimate;
       res.error_estimated = true;
       res.budget_stopped = true;

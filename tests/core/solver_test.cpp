@@ -1,9 +1,11 @@
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <random>
 
 #include "core/fc_problem.h"
 #include "core/local_solver.h"
+#include "core/nsgs.h"
 
 namespace gs {
 namespace {
@@ -106,6 +108,23 @@ TEST(Nsgs, TimeBudgetStopsSweepingAndReportsTheExactErrorReached) {
   EXPECT_FALSE(roomy.nsgs.budget_stopped);
   EXPECT_EQ(roomy.nsgs.iterations, free.nsgs.iterations);
   EXPECT_EQ((r_roomy - r_free).norm(), 0.0);
+}
+
+// The budget's two rules: another sweep plus the exact pass (Exhausted), the exact
+// pass alone (HoldsErrorPass); no budget holds everything.
+TEST(Nsgs, BudgetRulesCountSweepsAndTheErrorPass) {
+  const NsgsBudget none(0.0);
+  EXPECT_FALSE(none.Exhausted(1));
+  EXPECT_TRUE(none.HoldsErrorPass(1));
+  const NsgsBudget roomy(100.0);
+  EXPECT_FALSE(roomy.Exhausted(1));
+  EXPECT_TRUE(roomy.HoldsErrorPass(1));
+  const NsgsBudget spent(1e-12);  // over once any time has passed
+  volatile double sink = 0.0;
+  for (int i = 0; i < 1000; ++i) sink = sink + std::sqrt(static_cast<double>(i));
+  EXPECT_TRUE(spent.Exhausted(1));
+  EXPECT_FALSE(spent.HoldsErrorPass(1));
+  EXPECT_TRUE(spent.HoldsErrorPass(0));  // no sweep yet: nothing to measure the pass by
 }
 
 // Warm started at or near a solution, a sweep barely moves the forces: the bound of
