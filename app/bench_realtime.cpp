@@ -19,7 +19,8 @@
 // deadline delays but never drops simulated time. As in live, each step must end
 // F timesteps into its slot (default 0.8): the solver stops sweeping when the rest of
 // that would not hold another sweep; such steps are counted (budget stops) with
-// the largest solver error reached (for those, the last sweep's estimate: core/nsgs.h). --steps-csv writes every step of both runs
+// the largest solver error reached (the last sweep's estimate where the exact pass did
+// not fit either: core/nsgs.h). --steps-csv writes every step of both runs
 // (loop time, lateness, stage times, contacts, sweeps, the step's work counters)
 // to see what made a step late.
 
