@@ -244,6 +244,8 @@ TEST(WellPosed, NonFiniteValueInjectedIntoAnyStageRejectsTheStep) {
       {"contact force NaN after the solve", 4, [](World& w) { w.rows[0].r[0] = NAN; }, "solve"},
       {"body response NaN after the solve", 4, [](World& w) { w.articulations[0].dq[3] = NAN; }, "solve"},
       {"displacement NaN after the solve", 4, [](World& w) { w.bodies[1].u_acc[3].x() = NAN; }, "solve"},
+      {"displacement -Inf after the solve", 4, [](World& w) { w.bodies[1].u_acc[7].z() = -INFINITY; }, "solve"},
+      {"relaxed displacement Inf", 1, [](World& w) { w.bodies[1].u_free[5].y() = INFINITY; }, "free motion"},
   };
   for (const Case& c : cases) {
     World w;
