@@ -162,6 +162,9 @@ bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::str
   const tracking::TrackerConfig cfg = sim.config();
   tracking::UdpReceiver rx;
   if (!rx.Open(opt.udp, error)) return false;
+  // from here on, datagrams sent to the port are queued for the receiver (a sender may start)
+  std::printf("live: listening on UDP port %d\n", rx.port());
+  std::fflush(stdout);
 
   // receiver thread: parse, map, hand over the newest sample
   tracking::LatestMailbox<tracking::TargetSample> samples;

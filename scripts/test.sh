@@ -8,6 +8,23 @@ cd "$(dirname "$0")/.."
 scripts/setup.sh
 presets="${GRASPSIM_TEST_PRESETS:-release asan tsan}"
 jobs="$(nproc)"
+# ctest with the given arguments; when a test fails, its own output (from the
+# build's LastTest.log) is printed last, where a log's tail shows it
+run_ctest() {
+  local dir="$1"
+  shift
+  if ctest "$@"; then return 0; fi
+  local failed="$dir/Testing/Temporary/LastTestsFailed.log"
+  if [ -f "$failed" ]; then
+    while IFS=: read -r _ name; do
+      echo "=== output of the failed test $name ==="
+      awk -v n="$name" '!p && /^[0-9]+\/[0-9]+ Test: / && substr($0, index($0, "Test: ") + 6) == n {p = 1}
+                         p {print} p && index($0, "\"" n "\" end time:") == 1 {exit}' \
+        "$dir/Testing/Temporary/LastTest.log" | tail -n 120
+    done <"$failed"
+  fi
+  return 1
+}
 for preset in $presets; do
   echo "=== $preset ==="
   start=$SECONDS
@@ -16,15 +33,15 @@ for preset in $presets; do
     # the threaded tests (receiver, mailboxes, live, record, replay, signals); the determinism
     # tests render through OSMesa, whose llvmpipe threads are not instrumented: they run in
     # the release and asan builds
-    ctest --preset tsan -j "$jobs" -L threads -E '^Determinism\.'
+    run_ctest build/tsan --preset tsan -j "$jobs" -L threads -E '^Determinism\.'
   elif [ "$preset" = asan ]; then
     scripts/build.sh asan
     # every unit and integration test; the four sweeps that replay whole benchmark
     # matrices (minutes each under ASan) run in the release build only
-    ctest --preset asan -j "$jobs" -E '^(Stress\.QuickMatrix|Tradeoff\.QuickSweeps|BenchScaling\.QuickSeriesAndFittedSlopes|BenchSkip\.QuickRunShowsEachSkip)$'
+    run_ctest build/asan --preset asan -j "$jobs" -E '^(Stress\.QuickMatrix|Tradeoff\.QuickSweeps|BenchScaling\.QuickSeriesAndFittedSlopes|BenchSkip\.QuickRunShowsEachSkip)$'
   else
     scripts/build.sh "$preset"
-    ctest --preset "$preset" -j "$jobs"
+    run_ctest "build/$preset" --preset "$preset" -j "$jobs"
   fi
   echo "=== $preset: $((SECONDS - start)) s ==="
 done

@@ -79,7 +79,7 @@ TEST(LiveFaults, ReportsEachTrackerFaultAndRecovers) {
   test::Background live(test::Binary() + " live " + scene + " --port " + std::to_string(port) +
                         " --allow 127.0.0.1 --duration 11.5 --publish-rate 0");
   ASSERT_NE(live.ReadLine().find("live: scene"), std::string::npos);
-  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  ASSERT_TRUE(live.ReadUntil("live: listening on UDP port " + std::to_string(port))) << live.Wait().output;
   const auto t0 = Clock::now();
   auto at = [&](double s) { std::this_thread::sleep_until(t0 + std::chrono::duration<double>(s)); };
 

@@ -28,7 +28,7 @@ TEST(LiveRender, EveryFrameTimeIsDrawnOrCountedAsDropped) {
   test::Background live(test::Binary() + " live " + scene + " --port " + std::to_string(port) +
                         " --duration 2 --publish-rate 0 --size 96x72 --frames " + dir + "/frames");
   ASSERT_NE(live.ReadLine().find("live: scene"), std::string::npos);
-  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  ASSERT_TRUE(live.ReadUntil("live: listening on UDP port " + std::to_string(port))) << live.Wait().output;
   const test::Result send =
       test::Run(test::Binary() + " send --synthetic --rate 100 --port " + std::to_string(port) + " --delay 0");
   const test::Result r = live.Wait();

@@ -290,7 +290,7 @@ TEST(Signals, LiveEndsCleanlyOnSigtermWithItsSummary) {
   test::Child live({test::Binary(), "live", std::string(GRASPSIM_TEST_DATA) + "/tracking/tracked_hand_light.yaml",
                     "--port", std::to_string(port), "--publish-rate", "0"},
                    out);
-  ASSERT_TRUE(WaitForText(out, "live: scene", 60)) << test::ReadFile(out);
+  ASSERT_TRUE(WaitForText(out, "live: listening", 60)) << test::ReadFile(out);
   std::this_thread::sleep_for(std::chrono::milliseconds(800));
   live.Signal(SIGTERM);
   EXPECT_EQ(live.Wait(), 0) << test::ReadFile(out);

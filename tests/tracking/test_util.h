@@ -81,6 +81,14 @@ class Background {
     early_ += line;
     return line;
   }
+  /// Reads lines until one holds `text` (true) or the output ends (false).
+  bool ReadUntil(const std::string& text) {
+    for (;;) {
+      const std::string line = ReadLine();
+      if (line.empty()) return false;
+      if (line.find(text) != std::string::npos) return true;
+    }
+  }
   Result Wait() {
     Result r;
     r.output = early_;
