@@ -9,6 +9,7 @@
 #include <random>
 
 #include "app/scene_checks.h"
+#include "core/contact_jacobian.h"
 #include "core/fc_problem.h"
 #include "core/virtual_coupling.h"
 #include "core/world.h"
@@ -111,9 +112,8 @@ bool StateFinite(const World& w) {
 
 // normal gap of a row after the solve: q + W r, read through the bodies as the solver does
 double PostSolveGap(const World& w, const ContactRow& row) {
-  Vec3 u = row.q;
+  Vec3 u = row.q + ArticulatedVelocity(w, row);
   for (const ContactSide& s : row.side) {
-    if (s.articulation >= 0) u += s.h * w.articulations[s.articulation].dq;
     if (s.count > 0) {
       const Body& b = w.bodies[s.body];
       Vec3 d = Vec3::Zero();

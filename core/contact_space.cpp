@@ -8,18 +8,11 @@
 #include <algorithm>
 #include <chrono>
 
+#include "core/contact_jacobian.h"
 #include "core/world.h"
 
 namespace gs {
 namespace {
-
-// 3x6 Jacobian of a material point at world position p of a free body (dx, dtheta)
-Eigen::Matrix<double, 3, 6> FreeBodyJacobian(const Vec3& p, const Vec3& center) {
-  Eigen::Matrix<double, 3, 6> J;
-  J.leftCols<3>().setIdentity();
-  J.rightCols<3>() = -Skew(p - center);
-  return J;
-}
 
 // interpolated displacement of a contact side from per-control-point values
 Vec3 SideDisplacement(const ContactSide& s, const std::vector<Vec3>& u) {
@@ -95,6 +88,7 @@ void BuildContactSpace(World& w) {
   w.warm_index.Clear(static_cast<int>(w.warm_prev.size()));
   for (size_t i = 0; i < w.warm_prev.size(); ++i) w.warm_index.Insert(w.warm_prev[i].first, static_cast<int>(i));
   w.rows.clear();
+  w.side_jacobians.clear();
   w.side_inf_idx.clear();
   w.side_inf_phi.clear();
   // rigid part: frames, free slip of the material points, Jacobian rows, W_rigid,cc
@@ -105,12 +99,16 @@ void BuildContactSpace(World& w) {
     const Vec3 n = c.normal;
     const Vec3 t1 = AnyPerpendicular(n);
     const Vec3 t2 = n.cross(t1);
-    row.frame.row(0) = n;
-    row.frame.row(1) = t1;
-    row.frame.row(2) = t2;
+    Mat3 frame;  // read back below from here, not from the row just written
+    frame.row(0) = n;
+    frame.row(1) = t1;
+    frame.row(2) = t2;
+    row.frame = frame;
     Vec3 world_pt[2];
     Vec3 slip = Vec3::Zero();
     row.w_diag.setZero();
+    Mat3 free_compliance = Mat3::Zero();  // J A^-1 J^T of the free sides (world)
+    bool free_side = false;
     // the same contact in the last step, if any
     row.prev = w.rows_prev_index.Find(c.key);
     for (int s = 0; s < 2; ++s) {
@@ -120,6 +118,7 @@ void BuildContactSpace(World& w) {
       side.sign = s == 0 ? 1.0 : -1.0;
       world_pt[s] = b.pose.Apply(c.anchor[s]);
       side.articulation = b.articulation;
+      side.jacobian = -1;
       side.count = 0;
       side.inf_begin = side.inf_count = 0;
       side.w_deform = 0.0;
@@ -149,7 +148,6 @@ void BuildContactSpace(World& w) {
           }
         }
       }
-      if (b.deform.enabled()) side.m = side.sign * row.frame * b.pose.R;
       // The material point: on a deformable body, the rest anchor displaced by u. The
       // body's rotation turns it where it is, so the Jacobian's lever arm ends there. With
       // the arm to the rest anchor instead, a contact torque that turns a fingertip by
@@ -165,15 +163,6 @@ void BuildContactSpace(World& w) {
         continue;
       }
       const Articulation& a = w.articulations[b.articulation];
-      Eigen::Matrix<double, 3, 6> J = Eigen::Matrix<double, 3, 6>::Zero();
-      Vec3 carried = Vec3::Zero();
-      if (a.finger >= 0) {
-        J.leftCols<4>() = FingerPointJacobian(w.hand.fingers[a.finger].kin, lever_pt);
-        // the hand's own (prescribed) motion carries the finger
-        carried = lever_pt - w.hand.pose_prev.Apply(w.hand.pose.ApplyInverse(lever_pt));
-      } else {
-        J = FreeBodyJacobian(lever_pt, b.pose.t);
-      }
       // Free slip of the material point, linearised where the contact response is (at
       // the free-motion configuration): J dq_free, not the finite difference
       // x(q_free) - x(q_prev). The step ends at q_free + dq with the solver taking that
@@ -184,11 +173,27 @@ void BuildContactSpace(World& w) {
       // what the solver took for sticking contacts. Linearised, the error is
       // dq_total^T H dq_free, zero when the hold is steady. The gap stays the
       // position-level one from collision detection (its error is not integrated).
+      if (a.finger < 0) {
+        // a free body: its lever arm, J applied in place (core/contact_jacobian.h)
+        side.lever = lever_pt - b.pose.t;
+        slip += side.sign * FreeSideMotion(a.dq_free, side.lever);
+        free_compliance += FreeSideCompliance(a, side.lever);
+        free_side = true;
+        continue;
+      }
+      Eigen::Matrix<double, 3, 6> J;
+      J.leftCols<4>() = FingerPointJacobian(w.hand.fingers[a.finger].kin, lever_pt);
+      J.rightCols<2>().setZero();
+      // the hand's own (prescribed) motion carries the finger
+      const Vec3 carried = lever_pt - w.hand.pose_prev.Apply(w.hand.pose.ApplyInverse(lever_pt));
       slip += side.sign * (carried + J * a.dq_free);
-      side.h = side.sign * row.frame * J;
-      side.g = a.a_inv * side.h.transpose();
-      row.w_diag += side.h * side.g;
+      side.jacobian = static_cast<int>(w.side_jacobians.size());
+      SideJacobian& jac = w.side_jacobians.emplace_back();
+      jac.h = side.sign * frame * J;
+      jac.g = a.a_inv * jac.h.transpose();
+      row.w_diag += jac.h * jac.g;
     }
+    if (free_side) row.w_diag += frame * free_compliance * frame.transpose();
     row.world_point = 0.5 * (world_pt[0] + world_pt[1]);
     row.q = Vec3(c.gap, t1.dot(slip), t2.dot(slip));
     row.gap_start = c.gap - n.dot(slip);  // the free motion's share taken out; deformation added below

@@ -9,6 +9,7 @@
 #include <chrono>
 #include <cmath>
 
+#include "core/contact_jacobian.h"
 #include "core/world.h"
 
 namespace gs {
@@ -29,27 +30,38 @@ class WorldDelassus {
 
   Vec3 Velocity(int c, const Vec3* /*r*/) const {
     const ContactRow& row = w_.rows[c];
-    Vec3 u = row.q;
+    Vec3 u = row.q + ArticulatedVelocity(w_, row);
+    // deformable sides: the interpolated displacement (rest frame) turned to the world
+    Vec3 v = Vec3::Zero();
+    bool deformable = false;
     for (const ContactSide& s : row.side) {
-      if (s.articulation >= 0) u += s.h * w_.articulations[s.articulation].dq;
       if (s.count > 0) {
-        const Vec3* ua = w_.bodies[s.body].u_acc.data();
+        const Body& b = w_.bodies[s.body];
+        const Vec3* ua = b.u_acc.data();
         Vec3 d = s.w[0] * ua[s.idx[0]];
         for (int k = 1; k < s.count; ++k) d += s.w[k] * ua[s.idx[k]];
-        u += s.m * d;
+        v += s.sign * (b.pose.R * d);
+        deformable = true;
       }
     }
+    if (deformable) u += row.frame * v;
     return u;
   }
 
   void ApplyDelta(int c, const Vec3& dr) {
     const ContactRow& row = w_.rows[c];
+    ApplyArticulatedDelta(w_, row, dr);
+    Vec3 fw;  // the force on side 0, world
+    bool have_fw = false;
     for (const ContactSide& s : row.side) {
-      if (s.articulation >= 0) w_.articulations[s.articulation].dq += s.g * dr;
       if (s.inf_count > 0) {
         Body& b = w_.bodies[s.body];
+        if (!have_fw) {
+          fw = row.frame.transpose() * dr;
+          have_fw = true;
+        }
         // the force on this body, in its rest frame, over the control points it moves
-        const Vec3 f = s.m.transpose() * dr;
+        const Vec3 f = s.sign * (b.pose.R.transpose() * fw);
         const int* idx = s.inf_idx;
         const double* phi = s.inf_phi;
         Vec3* u = b.u_acc.data();
@@ -63,14 +75,14 @@ class WorldDelassus {
   // and a normal ApplyDelta, a third of the work of the 3x6 rows.
   double NormalVelocity(int c) const {
     const ContactRow& row = w_.rows[c];
-    double u = row.q[0];
+    double u = row.q[0] + ArticulatedNormalVelocity(w_, row);
     for (const ContactSide& s : row.side) {
-      if (s.articulation >= 0) u += s.h.row(0).dot(w_.articulations[s.articulation].dq);
       if (s.count > 0) {
-        const Vec3* ua = w_.bodies[s.body].u_acc.data();
+        const Body& b = w_.bodies[s.body];
+        const Vec3* ua = b.u_acc.data();
         Vec3 d = s.w[0] * ua[s.idx[0]];
         for (int k = 1; k < s.count; ++k) d += s.w[k] * ua[s.idx[k]];
-        u += s.m.row(0).dot(d);
+        u += s.sign * row.frame.row(0).dot(b.pose.R * d);
       }
     }
     return u;
@@ -78,11 +90,11 @@ class WorldDelassus {
 
   void ApplyNormalDelta(int c, double dr) {
     const ContactRow& row = w_.rows[c];
+    ApplyArticulatedNormalDelta(w_, row, dr);
     for (const ContactSide& s : row.side) {
-      if (s.articulation >= 0) w_.articulations[s.articulation].dq += s.g.col(0) * dr;
       if (s.inf_count > 0) {
         Body& b = w_.bodies[s.body];
-        const Vec3 f = s.m.row(0).transpose() * dr;
+        const Vec3 f = (s.sign * dr) * (b.pose.R.transpose() * row.frame.row(0).transpose());
         const int* idx = s.inf_idx;
         const double* phi = s.inf_phi;
         Vec3* u = b.u_acc.data();

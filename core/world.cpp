@@ -173,6 +173,7 @@ void World::Finalize() {
   side_inf_idx.reserve(static_cast<size_t>(64) * params.max_contacts);
   side_inf_phi.reserve(static_cast<size_t>(64) * params.max_contacts);
   rows_prev.reserve(params.max_contacts);
+  side_jacobians.reserve(static_cast<size_t>(2) * params.max_contacts);  // two finger sides at most
   rows_prev_index.Reserve(params.max_contacts);
   warm_index.Reserve(params.max_contacts);
   side_inf_idx_prev.reserve(static_cast<size_t>(64) * params.max_contacts);

@@ -117,15 +117,16 @@ struct ContactSide {
   int count = 0;
   int idx[kMaxWeights];
   double w[kMaxWeights];
-  Eigen::Matrix<double, 3, 6> h;  ///< sign * frame^T * J (articulated sides)
-  /// A^-1 h^T of its articulation (set with h): a force change dr moves the
-  /// articulation's accumulator by g dr, 18 multiplications instead of 54 per update
-  /// (like h and m, read only where set: not zeroed, rows are built in place every step)
-  Eigen::Matrix<double, 6, 3> g;
-  /// sign * frame * R (deformable sides): a displacement d of the body's control
-  /// points (rest frame) moves the contact's gap and slip by m d; the force in the
-  /// body's rest frame is m^T dr
-  Mat3 m;
+  /// A free body's side: the lever arm from the body's centre to the material point
+  /// (world, m). Its rows H = sign * frame * J, with J = [I, -[lever]x], are applied in
+  /// place (core/contact_jacobian.h): 24 bytes instead of H and A^-1 H^T's 288
+  /// (read only where set: not zeroed, rows are built in place every step). A
+  /// deformable side moves the gap and slip by sign * frame * R d for a displacement d
+  /// of its control points (rest frame), the force in the rest frame being
+  /// sign * R^T frame^T dr: R is the body's, read at the solve.
+  Vec3 lever;
+  /// A finger's side: its H and A^-1 H^T in World::side_jacobians (-1: none)
+  int jacobian = -1;
   double sign = 1.0;
   /// the side's merged influence on its body's control points: a force F at the
   /// contact point moves control point m by phi_m F (eq. 8 weights folded into eq. 13),
@@ -139,6 +140,14 @@ struct ContactSide {
   const double* inf_phi = nullptr;
   double w_deform = 0.0;  ///< this side's share of W_deform,cc (m/N, isotropic)
   Vec3 weights_at = Vec3::Zero();  ///< rest-frame point at which the eq. 8 weights were evaluated
+};
+
+/// The rows of a finger's contact side: h = sign * frame * J (its last columns zero
+/// past the finger's joints) and g = A^-1 h^T (a force change dr moves the
+/// finger's accumulator by g dr).
+struct SideJacobian {
+  Eigen::Matrix<double, 3, 6> h;
+  Eigen::Matrix<double, 6, 3> g;
 };
 
 /// One row block of the contact space (normal first, then the two tangents).
@@ -296,6 +305,7 @@ class World {
   std::vector<Vec3> solve_r;
   std::vector<int> side_inf_idx;      ///< merged influences of the contact sides (see ContactSide)
   std::vector<double> side_inf_phi;
+  std::vector<SideJacobian> side_jacobians;  ///< of the finger sides (see ContactSide::jacobian)
   // the last step's contact space, for reuse (params.reuse_contact_space)
   std::vector<ContactRow> rows_prev;
   std::vector<int> side_inf_idx_prev;

@@ -7,6 +7,7 @@
 // and the contact's push cancel) and the lever arm to the rest anchor instead of the
 // displaced contact point of a deformable body.
 #include "core/world.h"
+#include "core/fc_problem.h"
 
 #include <gtest/gtest.h>
 
@@ -130,6 +131,22 @@ TEST(ContactModel, FingerPressingOnATableDoesNotCreepWhereItSticks) {
   double fn = 0;
   for (const ContactRow& r : w.rows) fn += r.r[0];
   EXPECT_GT(fn, 0.1);  // it does press
+
+  // the finger's side of every contact keeps its H and A^-1 H^T in the world's pool;
+  // assembled through the solver's operator, W is symmetric and its diagonal blocks
+  // are the contact space's (a wrong sign or transpose in either breaks one)
+  int finger_sides = 0;
+  for (const ContactRow& r : w.rows)
+    for (const ContactSide& s : r.side) finger_sides += s.jacobian >= 0 ? 1 : 0;
+  EXPECT_EQ(finger_sides, static_cast<int>(w.rows.size()));
+  FcProblem p;
+  AssembleContactProblem(w, &p);
+  const Eigen::MatrixXd W(p.W);
+  const double scale = W.cwiseAbs().maxCoeff();
+  ASSERT_GT(scale, 0.0);
+  EXPECT_LE((W - W.transpose()).cwiseAbs().maxCoeff(), 1e-9 * scale);
+  for (size_t c = 0; c < w.rows.size(); ++c)
+    EXPECT_LE((W.block<3, 3>(3 * c, 3 * c) - w.rows[c].w_diag).cwiseAbs().maxCoeff(), 1e-9 * scale) << c;
 }
 
 TEST(ContactModel, SquashedFingertipHeldByFrictionDoesNotCreep) {

@@ -1,12 +1,14 @@
-// The per-side products the solver reads (ContactSide::g = A^-1 h^T and
-// ContactSide::m = sign * frame * R, set by BuildContactSpace so that a
-// Gauss-Seidel update costs fewer multiplications) must describe the same
+// What the solver reads of a contact side (a free body's lever arm, from which
+// core/contact_jacobian.h applies H and A^-1 H^T in place, and a deformable
+// side's sign * frame * R, applied at the solve) must describe the same
 // Delassus operator as the contact space's own diagonal blocks: assembled
 // column by column through the solver's operator, W must be symmetric and its
 // diagonal blocks must equal w_diag. A wrong sign, a missing transpose or a
-// stale rotation in g or m breaks one of the two.
+// stale rotation breaks one of the two; the levers' rows are also checked
+// against the explicit H = sign * frame * [I, -[lever]x].
 #include <gtest/gtest.h>
 
+#include "core/contact_jacobian.h"
 #include "core/world.h"
 #include "soft_bodies.h"
 
@@ -39,23 +41,46 @@ TEST(ContactSpaceCache, OperatorMatchesDiagonalBlocksAndIsSymmetric) {
     for (const ContactSide& s : row.side) {
       const Body& b = w.bodies[s.body];
       if (s.articulation >= 0) {
-        const Eigen::Matrix<double, 6, 3> g = w.articulations[s.articulation].a_inv * s.h.transpose();
-        EXPECT_LE((s.g - g).norm(), 1e-12 * g.norm());
+        // a free body's rows, applied in place from the lever arm, against the explicit
+        // H = sign * frame * [I, -[lever]x] and A^-1 H^T
+        ASSERT_LT(s.jacobian, 0);
+        Eigen::Matrix<double, 3, 6> J;
+        J << Mat3::Identity(), -Skew(s.lever);
+        const Eigen::Matrix<double, 3, 6> H = s.sign * row.frame * J;
+        // the lever reaches the contact point (from the centre at the solve; the step moved it since)
+        EXPECT_LT((s.lever - (row.world_point - b.pose.t)).norm(), 1e-3);
+        // probed through the accumulators of w itself, restored after
+        std::vector<Vec6> saved;
+        for (const Articulation& x : w.articulations) saved.push_back(x.dq);
+        World& probe = w;
+        Articulation& a = probe.articulations[s.articulation];
+        ContactRow alone = row;
+        alone.side[1 - (&s - row.side)].articulation = -1;  // this side only
+        for (int k = 0; k < 6; ++k) {
+          for (Articulation& x : probe.articulations) x.dq.setZero();
+          a.dq[k] = 1.0;
+          EXPECT_LE((ArticulatedVelocity(probe, alone) - H.col(k)).norm(), 1e-12 * H.norm()) << "dof " << k;
+          EXPECT_NEAR(ArticulatedNormalVelocity(probe, alone), H(0, k), 1e-12 * H.norm()) << "dof " << k;
+        }
+        const Eigen::Matrix<double, 6, 3> G = a.a_inv * H.transpose();
+        for (int k = 0; k < 3; ++k) {
+          a.dq.setZero();
+          ApplyArticulatedDelta(probe, alone, Vec3::Unit(k));
+          EXPECT_LE((a.dq - G.col(k)).norm(), 1e-12 * G.norm()) << "force row " << k;
+        }
+        a.dq.setZero();
+        ApplyArticulatedNormalDelta(probe, alone, 1.0);
+        EXPECT_LE((a.dq - G.col(0)).norm(), 1e-12 * G.norm());
+        for (size_t i = 0; i < saved.size(); ++i) probe.articulations[i].dq = saved[i];
         ++articulated;
       }
-      if (s.count > 0 || s.inf_count > 0) {
-        // sign * frame * R at the solve (the step has moved the pose since): a rotation,
-        // up to the sign, whose transpose takes the frame's normal to the rest frame
-        EXPECT_LE((s.m * s.m.transpose() - Mat3::Identity()).norm(), 1e-12);
-        EXPECT_LT((s.m.row(0).transpose() - s.sign * b.pose.R.transpose() * row.frame.row(0).transpose()).norm(), 0.05);
-        ++deformable;
-      }
+      if (s.count > 0 || s.inf_count > 0) ++deformable;
     }
   }
   EXPECT_GT(articulated, 0);
   EXPECT_GT(deformable, static_cast<int>(w.rows.size()));  // both sides of most contacts
-  // W through the solver's operator (it reads g and m) against w_diag (built from h, A^-1
-  // and the W_deform terms, without m)
+  // W through the solver's operator (it reads the levers and m) against w_diag (built
+  // from the levers' J A^-1 J^T and the W_deform terms, without m)
   FcProblem p;
   AssembleContactProblem(w, &p);
   const Eigen::MatrixXd W(p.W);
