@@ -17,82 +17,77 @@ namespace gs {
 /// body motion q = (linear, angular), world coordinates.
 inline Vec3 FreeSideMotion(const Vec6& q, const Vec3& lever) { return q.head<3>() + q.tail<3>().cross(lever); }
 
-/// H dq: the articulations' share of the contact's relative velocity (frame coordinates).
-inline Vec3 ArticulatedVelocity(const World& w, const ContactRow& row) {
-  Vec3 u = Vec3::Zero();  // finger sides, frame coordinates
-  Vec3 v = Vec3::Zero();  // free sides, world coordinates
-  bool free = false;
-  for (const ContactSide& s : row.side) {
-    if (s.articulation < 0) continue;
-    const Vec6& dq = w.articulations[s.articulation].dq;
-    if (s.jacobian >= 0) {
-      u += w.side_jacobians[s.jacobian].h * dq;
-    } else {
-      v += s.sign * FreeSideMotion(dq, s.lever);
-      free = true;
-    }
+/// Adds an articulated side's H dq: a finger's to u (frame coordinates), a free
+/// body's sign * J dq to v (world coordinates; the caller turns v into the frame once
+/// for the whole row).
+inline void AddSideVelocity(const World& w, const ContactSide& s, Vec3* u, Vec3* v) {
+  const Vec6& dq = w.articulations[s.articulation].dq;
+  if (s.jacobian >= 0)
+    *u += w.side_jacobians[s.jacobian].h * dq;
+  else
+    *v += s.sign * FreeSideMotion(dq, s.lever);
+}
+
+/// The normal row of AddSideVelocity (u: the normal velocity).
+inline void AddSideNormalVelocity(const World& w, const ContactSide& s, double* u, Vec3* v) {
+  const Vec6& dq = w.articulations[s.articulation].dq;
+  if (s.jacobian >= 0)
+    *u += w.side_jacobians[s.jacobian].h.row(0).dot(dq);
+  else
+    *v += s.sign * FreeSideMotion(dq, s.lever);
+}
+
+/// dq += A^-1 H^T dr for an articulated side, given the force change dr (frame
+/// coordinates) and the same force on side 0 in the world, f = frame^T dr.
+inline void PushSide(World& w, const ContactSide& s, const Vec3& dr, const Vec3& f) {
+  Articulation& a = w.articulations[s.articulation];
+  if (s.jacobian >= 0) {
+    a.dq += w.side_jacobians[s.jacobian].g * dr;
+    return;
   }
-  if (free) u += row.frame * v;
-  return u;
+  const Vec3 fs = s.sign * f;
+  a.dq.head<3>() += a.a_inv.topLeftCorner<3, 3>() * fs;
+  a.dq.tail<3>() += a.a_inv.bottomRightCorner<3, 3>() * s.lever.cross(fs);
+}
+
+/// PushSide of a normal force change dr alone (f = n dr).
+inline void PushSideNormal(World& w, const ContactSide& s, double dr, const Vec3& f) {
+  if (s.jacobian >= 0) {
+    w.articulations[s.articulation].dq += w.side_jacobians[s.jacobian].g.col(0) * dr;
+    return;
+  }
+  PushSide(w, s, Vec3(dr, 0.0, 0.0), f);
+}
+
+/// H dq summed over the row's articulated sides (frame coordinates).
+inline Vec3 ArticulatedVelocity(const World& w, const ContactRow& row) {
+  Vec3 u = Vec3::Zero(), v = Vec3::Zero();
+  for (const ContactSide& s : row.side)
+    if (s.articulation >= 0) AddSideVelocity(w, s, &u, &v);
+  return u + row.frame * v;
 }
 
 /// The normal row of ArticulatedVelocity.
 inline double ArticulatedNormalVelocity(const World& w, const ContactRow& row) {
   double u = 0.0;
   Vec3 v = Vec3::Zero();
-  bool free = false;
-  for (const ContactSide& s : row.side) {
-    if (s.articulation < 0) continue;
-    const Vec6& dq = w.articulations[s.articulation].dq;
-    if (s.jacobian >= 0) {
-      u += w.side_jacobians[s.jacobian].h.row(0).dot(dq);
-    } else {
-      v += s.sign * FreeSideMotion(dq, s.lever);
-      free = true;
-    }
-  }
-  if (free) u += row.frame.row(0).dot(v);
-  return u;
+  for (const ContactSide& s : row.side)
+    if (s.articulation >= 0) AddSideNormalVelocity(w, s, &u, &v);
+  return u + row.frame.row(0).dot(v);
 }
 
-namespace detail {
-// a free side's accumulator moved by the world force f on side 0 (side 1 takes -f)
-inline void PushFreeSide(Articulation& a, const ContactSide& s, const Vec3& f) {
-  const Vec3 fs = s.sign * f;
-  a.dq.head<3>() += a.a_inv.topLeftCorner<3, 3>() * fs;
-  a.dq.tail<3>() += a.a_inv.bottomRightCorner<3, 3>() * s.lever.cross(fs);
-}
-}  // namespace detail
-
-/// dq += A^-1 H^T dr for each articulated side: the force change dr (frame coordinates).
+/// dq += A^-1 H^T dr for each articulated side of the row.
 inline void ApplyArticulatedDelta(World& w, const ContactRow& row, const Vec3& dr) {
-  Vec3 f;
-  bool have_f = false;
-  for (const ContactSide& s : row.side) {
-    if (s.articulation < 0) continue;
-    Articulation& a = w.articulations[s.articulation];
-    if (s.jacobian >= 0) {
-      a.dq += w.side_jacobians[s.jacobian].g * dr;
-      continue;
-    }
-    if (!have_f) {
-      f = row.frame.transpose() * dr;
-      have_f = true;
-    }
-    detail::PushFreeSide(a, s, f);
-  }
+  const Vec3 f = row.frame.transpose() * dr;
+  for (const ContactSide& s : row.side)
+    if (s.articulation >= 0) PushSide(w, s, dr, f);
 }
 
 /// ApplyArticulatedDelta of a normal force change alone.
 inline void ApplyArticulatedNormalDelta(World& w, const ContactRow& row, double dr) {
-  for (const ContactSide& s : row.side) {
-    if (s.articulation < 0) continue;
-    Articulation& a = w.articulations[s.articulation];
-    if (s.jacobian >= 0)
-      a.dq += w.side_jacobians[s.jacobian].g.col(0) * dr;
-    else
-      detail::PushFreeSide(a, s, row.frame.row(0).transpose() * dr);
-  }
+  const Vec3 f = row.frame.row(0).transpose() * dr;
+  for (const ContactSide& s : row.side)
+    if (s.articulation >= 0) PushSideNormal(w, s, dr, f);
 }
 
 /// J A^-1 J^T of a free side (world coordinates; the sign squares away).

@@ -28,46 +28,24 @@ class WorldDelassus {
     return s;
   }
 
+  // Each side adds to a frame-coordinate term (finger rows) and a world-coordinate
+  // term (free bodies' J dq, deformable sides' R d), turned into the frame once.
   Vec3 Velocity(int c, const Vec3* /*r*/) const {
     const ContactRow& row = w_.rows[c];
-    Vec3 u = row.q + ArticulatedVelocity(w_, row);
-    // deformable sides: the interpolated displacement (rest frame) turned to the world
-    Vec3 v = Vec3::Zero();
-    bool deformable = false;
+    Vec3 u = row.q, v = Vec3::Zero();
     for (const ContactSide& s : row.side) {
-      if (s.count > 0) {
-        const Body& b = w_.bodies[s.body];
-        const Vec3* ua = b.u_acc.data();
-        Vec3 d = s.w[0] * ua[s.idx[0]];
-        for (int k = 1; k < s.count; ++k) d += s.w[k] * ua[s.idx[k]];
-        v += s.sign * (b.pose.R * d);
-        deformable = true;
-      }
+      if (s.articulation >= 0) AddSideVelocity(w_, s, &u, &v);
+      if (s.count > 0) v += s.sign * (w_.bodies[s.body].pose.R * Interpolated(s));
     }
-    if (deformable) u += row.frame * v;
-    return u;
+    return u + row.frame * v;
   }
 
   void ApplyDelta(int c, const Vec3& dr) {
     const ContactRow& row = w_.rows[c];
-    ApplyArticulatedDelta(w_, row, dr);
-    Vec3 fw;  // the force on side 0, world
-    bool have_fw = false;
+    const Vec3 f = row.frame.transpose() * dr;  // the force on side 0, world
     for (const ContactSide& s : row.side) {
-      if (s.inf_count > 0) {
-        Body& b = w_.bodies[s.body];
-        if (!have_fw) {
-          fw = row.frame.transpose() * dr;
-          have_fw = true;
-        }
-        // the force on this body, in its rest frame, over the control points it moves
-        const Vec3 f = s.sign * (b.pose.R.transpose() * fw);
-        const int* idx = s.inf_idx;
-        const double* phi = s.inf_phi;
-        Vec3* u = b.u_acc.data();
-        for (int m = 0; m < s.inf_count; ++m) u[idx[m]] += phi[m] * f;
-        propagations_ += s.inf_count;
-      }
+      if (s.articulation >= 0) PushSide(w_, s, dr, f);
+      if (s.inf_count > 0) Propagate(s, f);
     }
   }
 
@@ -75,38 +53,47 @@ class WorldDelassus {
   // and a normal ApplyDelta, a third of the work of the 3x6 rows.
   double NormalVelocity(int c) const {
     const ContactRow& row = w_.rows[c];
-    double u = row.q[0] + ArticulatedNormalVelocity(w_, row);
+    double u = row.q[0];
+    Vec3 v = Vec3::Zero();
     for (const ContactSide& s : row.side) {
-      if (s.count > 0) {
-        const Body& b = w_.bodies[s.body];
-        const Vec3* ua = b.u_acc.data();
-        Vec3 d = s.w[0] * ua[s.idx[0]];
-        for (int k = 1; k < s.count; ++k) d += s.w[k] * ua[s.idx[k]];
-        u += s.sign * row.frame.row(0).dot(b.pose.R * d);
-      }
+      if (s.articulation >= 0) AddSideNormalVelocity(w_, s, &u, &v);
+      if (s.count > 0) v += s.sign * (w_.bodies[s.body].pose.R * Interpolated(s));
     }
-    return u;
+    return u + row.frame.row(0).dot(v);
   }
 
   void ApplyNormalDelta(int c, double dr) {
     const ContactRow& row = w_.rows[c];
-    ApplyArticulatedNormalDelta(w_, row, dr);
+    const Vec3 f = row.frame.row(0).transpose() * dr;
     for (const ContactSide& s : row.side) {
-      if (s.inf_count > 0) {
-        Body& b = w_.bodies[s.body];
-        const Vec3 f = (s.sign * dr) * (b.pose.R.transpose() * row.frame.row(0).transpose());
-        const int* idx = s.inf_idx;
-        const double* phi = s.inf_phi;
-        Vec3* u = b.u_acc.data();
-        for (int m = 0; m < s.inf_count; ++m) u[idx[m]] += phi[m] * f;
-        propagations_ += s.inf_count;
-      }
+      if (s.articulation >= 0) PushSideNormal(w_, s, dr, f);
+      if (s.inf_count > 0) Propagate(s, f);
     }
   }
 
   int propagations() const { return propagations_; }
 
  private:
+  // the eq. 8 interpolation of the side's accumulated control-point displacements (rest frame)
+  Vec3 Interpolated(const ContactSide& s) const {
+    const Vec3* ua = w_.bodies[s.body].u_acc.data();
+    Vec3 d = s.w[0] * ua[s.idx[0]];
+    for (int k = 1; k < s.count; ++k) d += s.w[k] * ua[s.idx[k]];
+    return d;
+  }
+
+  // the world force f on side 0 moves the control points under a deformable side
+  // (eq. 13): the side's share sign * f, in its body's rest frame, times each influence
+  void Propagate(const ContactSide& s, const Vec3& f) {
+    Body& b = w_.bodies[s.body];
+    const Vec3 fr = s.sign * (b.pose.R.transpose() * f);
+    const int* idx = s.inf_idx;
+    const double* phi = s.inf_phi;
+    Vec3* u = b.u_acc.data();
+    for (int m = 0; m < s.inf_count; ++m) u[idx[m]] += phi[m] * fr;
+    propagations_ += s.inf_count;
+  }
+
   World& w_;
   int propagations_ = 0;
 };
