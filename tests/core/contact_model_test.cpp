@@ -7,7 +7,7 @@
 // and the contact's push cancel) and the lever arm to the rest anchor instead of the
 // displaced contact point of a deformable body.
 #include "core/world.h"
-#include "core/fc_problem.h"
+#include "operator_check.h"
 
 #include <gtest/gtest.h>
 
@@ -139,14 +139,7 @@ TEST(ContactModel, FingerPressingOnATableDoesNotCreepWhereItSticks) {
   for (const ContactRow& r : w.rows)
     for (const ContactSide& s : r.side) finger_sides += s.jacobian >= 0 ? 1 : 0;
   EXPECT_EQ(finger_sides, static_cast<int>(w.rows.size()));
-  FcProblem p;
-  AssembleContactProblem(w, &p);
-  const Eigen::MatrixXd W(p.W);
-  const double scale = W.cwiseAbs().maxCoeff();
-  ASSERT_GT(scale, 0.0);
-  EXPECT_LE((W - W.transpose()).cwiseAbs().maxCoeff(), 1e-9 * scale);
-  for (size_t c = 0; c < w.rows.size(); ++c)
-    EXPECT_LE((W.block<3, 3>(3 * c, 3 * c) - w.rows[c].w_diag).cwiseAbs().maxCoeff(), 1e-9 * scale) << c;
+  test::ExpectOperatorMatchesContactSpace(w);
 }
 
 TEST(ContactModel, SquashedFingertipHeldByFrictionDoesNotCreep) {

@@ -10,6 +10,7 @@
 
 #include "core/contact_jacobian.h"
 #include "core/world.h"
+#include "operator_check.h"
 #include "soft_bodies.h"
 
 namespace gs {
@@ -79,18 +80,9 @@ TEST(ContactSpaceCache, OperatorMatchesDiagonalBlocksAndIsSymmetric) {
   }
   EXPECT_GT(articulated, 0);
   EXPECT_GT(deformable, static_cast<int>(w.rows.size()));  // both sides of most contacts
-  // W through the solver's operator (it reads the levers and m) against w_diag (built
-  // from the levers' J A^-1 J^T and the W_deform terms, without m)
-  FcProblem p;
-  AssembleContactProblem(w, &p);
-  const Eigen::MatrixXd W(p.W);
-  const double scale = W.cwiseAbs().maxCoeff();
-  ASSERT_GT(scale, 0.0);
-  EXPECT_LE((W - W.transpose()).cwiseAbs().maxCoeff(), 1e-9 * scale);
-  for (size_t c = 0; c < w.rows.size(); ++c) {
-    const Mat3 block = W.block<3, 3>(3 * c, 3 * c);
-    EXPECT_LE((block - w.rows[c].w_diag).cwiseAbs().maxCoeff(), 1e-9 * scale) << "contact " << c;
-  }
+  // W through the solver's operator (levers, rotations at the solve, merged influences)
+  // against w_diag
+  test::ExpectOperatorMatchesContactSpace(w);
 }
 
 }  // namespace
