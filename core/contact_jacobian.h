@@ -90,10 +90,28 @@ inline void ApplyArticulatedNormalDelta(World& w, const ContactRow& row, double 
     if (s.articulation >= 0) PushSideNormal(w, s, dr, f);
 }
 
-/// J A^-1 J^T of a free side (world coordinates; the sign squares away).
-inline Mat3 FreeSideCompliance(const Articulation& a, const Vec3& lever) {
-  const Mat3 S = Skew(lever);
-  return a.a_inv.topLeftCorner<3, 3>() - S * a.a_inv.bottomRightCorner<3, 3>() * S;
+/// Adds a free side's H A^-1 H^T to the diagonal block w (frame coordinates; the
+/// sign squares away). With f_i the frame's rows (n, t1, t2) and c_i = l x f_i,
+/// entry (i, j) is f_i . A_lin^-1 f_j + c_i . A_ang^-1 c_j (the mobility blocks are
+/// symmetric). Inlined, on values the caller holds in registers: a lever or frame
+/// just stored to the row and read back at once stalls on store forwarding.
+EIGEN_ALWAYS_INLINE void AddFreeSideBlock(const Articulation& a, const Vec3& lever, const Vec3& n, const Vec3& t1,
+                                          const Vec3& t2, Mat3* w) {
+  const auto al = a.a_inv.topLeftCorner<3, 3>();
+  const auto aa = a.a_inv.bottomRightCorner<3, 3>();
+  const Vec3 f[3] = {n, t1, t2};
+  Vec3 c[3], alf[3], aac[3];
+  for (int i = 0; i < 3; ++i) {
+    c[i] = lever.cross(f[i]);
+    alf[i] = al * f[i];
+    aac[i] = aa * c[i];
+  }
+  for (int i = 0; i < 3; ++i)
+    for (int j = i; j < 3; ++j) {
+      const double v = f[i].dot(alf[j]) + c[i].dot(aac[j]);
+      (*w)(i, j) += v;
+      if (j != i) (*w)(j, i) += v;
+    }
 }
 
 }  // namespace gs

@@ -107,8 +107,6 @@ void BuildContactSpace(World& w) {
     Vec3 world_pt[2];
     Vec3 slip = Vec3::Zero();
     row.w_diag.setZero();
-    Mat3 free_compliance = Mat3::Zero();  // J A^-1 J^T of the free sides (world)
-    bool free_side = false;
     // the same contact in the last step, if any
     row.prev = w.rows_prev_index.Find(c.key);
     for (int s = 0; s < 2; ++s) {
@@ -175,10 +173,10 @@ void BuildContactSpace(World& w) {
       // position-level one from collision detection (its error is not integrated).
       if (a.finger < 0) {
         // a free body: its lever arm, J applied in place (core/contact_jacobian.h)
-        side.lever = lever_pt - b.pose.t;
-        slip += side.sign * FreeSideMotion(a.dq_free, side.lever);
-        free_compliance += FreeSideCompliance(a, side.lever);
-        free_side = true;
+        const Vec3 lever = lever_pt - b.pose.t;
+        side.lever = lever;
+        slip += side.sign * FreeSideMotion(a.dq_free, lever);
+        AddFreeSideBlock(a, lever, n, t1, t2, &row.w_diag);
         continue;
       }
       Eigen::Matrix<double, 3, 6> J;
@@ -193,7 +191,6 @@ void BuildContactSpace(World& w) {
       jac.g = a.a_inv * jac.h.transpose();
       row.w_diag += jac.h * jac.g;
     }
-    if (free_side) row.w_diag += frame * free_compliance * frame.transpose();
     row.world_point = 0.5 * (world_pt[0] + world_pt[1]);
     row.q = Vec3(c.gap, t1.dot(slip), t2.dot(slip));
     row.gap_start = c.gap - n.dot(slip);  // the free motion's share taken out; deformation added below
