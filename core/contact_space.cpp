@@ -33,24 +33,40 @@ bool SameWeights(const ContactSide& a, const ContactSide& b) {
 // buffers, and its diagonal term sum_i w_i (sum_k w_k phi_ki)
 void BuildSideInfluence(World& w, Body& b, ContactSide* side) {
   const int begin = static_cast<int>(w.side_inf_idx.size());
+  // the buffers sized once for the longest possible merge (phi zero-filled), written
+  // through pointers and cut to the merged length after: no push_back per entry
+  int most = 0;
+  for (int k = 0; k < side->count; ++k) {
+    const int* idx;
+    const double* phi;
+    most += b.deform.Influence(side->idx[k], &idx, &phi);
+  }
+  w.side_inf_idx.resize(static_cast<size_t>(begin) + most);
+  w.side_inf_phi.resize(static_cast<size_t>(begin) + most, 0.0);
+  int* out_idx = w.side_inf_idx.data();
+  double* out_phi = w.side_inf_phi.data();
+  int* slots = b.inf_slot.data();
+  int end = begin;
   for (int k = 0; k < side->count; ++k) {
     const int* idx;
     const double* phi;
     const int m = b.deform.Influence(side->idx[k], &idx, &phi);
+    const double wk = side->w[k];
     for (int j = 0; j < m; ++j) {
-      int& slot = b.inf_slot[idx[j]];
+      int slot = slots[idx[j]];
       if (slot < 0) {
-        slot = static_cast<int>(w.side_inf_idx.size());
-        w.side_inf_idx.push_back(idx[j]);
-        w.side_inf_phi.push_back(0.0);
+        slot = end++;
+        slots[idx[j]] = slot;
+        out_idx[slot] = idx[j];
       }
-      w.side_inf_phi[slot] += side->w[k] * phi[j];
+      out_phi[slot] += wk * phi[j];
     }
   }
   double k = 0.0;
-  for (int i = 0; i < side->count; ++i) k += side->w[i] * w.side_inf_phi[b.inf_slot[side->idx[i]]];
-  const int end = static_cast<int>(w.side_inf_idx.size());
-  for (int j = begin; j < end; ++j) b.inf_slot[w.side_inf_idx[j]] = -1;
+  for (int i = 0; i < side->count; ++i) k += side->w[i] * out_phi[slots[side->idx[i]]];
+  for (int j = begin; j < end; ++j) slots[out_idx[j]] = -1;
+  w.side_inf_idx.resize(end);
+  w.side_inf_phi.resize(end);
   side->inf_begin = begin;
   side->inf_count = end - begin;
   side->w_deform = k;
