@@ -61,6 +61,33 @@ LogCount CountLog(const std::string& path) {
   return c;
 }
 
+/// Waits until the log at `path` holds `n` datagrams, at most `seconds`; returns how many it holds.
+uint64_t WaitForLogDatagrams(const std::string& path, uint64_t n, double seconds) {
+  const auto end = Clock::now() + std::chrono::duration<double>(seconds);
+  uint64_t seen = CountLog(path).datagrams;
+  while (seen < n && Clock::now() < end) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    seen = CountLog(path).datagrams;
+  }
+  return seen;
+}
+
+/// Waits until the log at `path` has stopped growing for `quiet_ms` (the recorder has
+/// drained its socket), at most `seconds`.
+void WaitForLogToSettle(const std::string& path, int quiet_ms, double seconds) {
+  const auto end = Clock::now() + std::chrono::duration<double>(seconds);
+  uint64_t last = CountLog(path).datagrams;
+  auto since = Clock::now();
+  while (Clock::now() < end && Clock::now() - since < std::chrono::milliseconds(quiet_ms)) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    const uint64_t now = CountLog(path).datagrams;
+    if (now != last) {
+      last = now;
+      since = Clock::now();
+    }
+  }
+}
+
 std::string Packet() { return test::ReadFile(std::string(GRASPSIM_TEST_DATA) + "/dtrack/d_ts2_left_hand_5.txt"); }
 
 // with a large buffer nothing is dropped on an idle machine; with the smallest one the kernel drops some:
@@ -93,7 +120,8 @@ TEST_P(RecordFlood, WritesEveryDatagramThatReachedTheSocketAndCountsKernelDrops)
     std::this_thread::sleep_until(t0 + std::chrono::milliseconds(ms + 1));
   }
   ASSERT_GE(sent, 19950u * seconds);
-  std::this_thread::sleep_for(std::chrono::milliseconds(500));  // the recorder drains its socket
+  // the recorder drains its socket: its log stops growing (a fixed wait was short on a loaded machine)
+  WaitForLogToSettle(log, 500, 30);
   record.Signal(SIGTERM);
   ASSERT_EQ(record.Wait(), 0) << test::ReadFile(out);
 
@@ -251,7 +279,8 @@ TEST(Signals, RecordEndsCleanlyOnSigint) {
     tx.Send(packet.data(), packet.size());
     std::this_thread::sleep_for(std::chrono::milliseconds(2));
   }
-  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  // all 50 on disk before the signal (record then has nothing left to drain)
+  EXPECT_EQ(WaitForLogDatagrams(log, 50, 30), 50u);
   record.Signal(SIGINT);
   ASSERT_EQ(record.Wait(), 0) << test::ReadFile(out);
   EXPECT_NE(test::ReadFile(out).find("record: 50 datagrams"), std::string::npos) << test::ReadFile(out);
