@@ -207,6 +207,7 @@ bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::str
   Snapshot pub = snap;  // the publisher's copy, sized before the simulation thread starts writing `snap`
   std::atomic<bool> stop{false};
   std::atomic<int64_t> steps{0}, overruns{0}, skipped{0}, applied{0};
+  std::atomic<int64_t> sim_end_ns{0};  // when the simulation thread left its loop
   std::atomic<double> last_step_ms{0.0};
   const int64_t budget_ns = static_cast<int64_t>(std::llround(opt.step_budget * dt * 1e9));
   double residual_max = 0.0;  // simulation thread; read after it is joined
@@ -280,6 +281,7 @@ bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::str
       }
       WaitUntilNs(next, opt.pacing.spin_ns);
     }
+    sim_end_ns.store(SteadyNanoseconds());
   });
 
   // this thread: LCM publishing and the status line
@@ -348,7 +350,9 @@ bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::str
   if (status_pending) std::printf("\n");
   stats->health = health.counts();
   stats->tracker_state = health.state();
-  stats->wall_s = 1e-9 * static_cast<double>(stop_ns - start_ns);
+  // the run lasts until the simulation thread's last step: a step under way at the stop
+  // ends after it, and a loop running behind gives up the slots up to that step's end
+  stats->wall_s = 1e-9 * static_cast<double>(std::max(stop_ns, sim_end_ns.load()) - start_ns);
   stats->steps = steps.load();
   stats->overruns = overruns.load();
   stats->skipped_steps = skipped.load();
