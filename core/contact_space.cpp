@@ -239,7 +239,7 @@ void BuildContactSpace(World& w) {
         ++w.profile.work.w_deform_direct;
         side.inf_begin = -1;
         side.inf_count = b.deform.Influence(side.idx[0], &idx, &phi);
-        side.w_deform = phi[0];
+        side.w_deform = b.deform.SelfCompliance(side.idx[0]);  // phi[0], packed (no miss per contact)
       } else if (ps && ps->body == side.body && ps->inf_begin >= 0 && SameWeights(*ps, side)) {
         // unchanged since the last step: copy its merged influence and W_deform term
         ++w.profile.work.w_deform_reused;

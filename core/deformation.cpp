@@ -14,6 +14,7 @@ void DeformableModel::Build(const std::vector<Vec3>& control_points, double area
   inf_start_.assign(1, 0);
   inf_idx_.clear();
   inf_phi_.clear();
+  self_phi_.clear();
   nb_start_.assign(1, 0);
   nb_idx_.clear();
   relax_.clear();
@@ -59,6 +60,7 @@ void DeformableModel::Build(const std::vector<Vec3>& control_points, double area
     std::sort(nbrs.begin(), nbrs.end());
     inf_idx_.push_back(j);
     inf_phi_.push_back(self);
+    self_phi_.push_back(self);
     for (int i : nbrs) {
       if (i == j) continue;
       const double x = (cp_[i] - cp_[j]).norm();

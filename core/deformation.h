@@ -52,7 +52,7 @@ class DeformableModel {
     return inf_start_[j + 1] - inf_start_[j];
   }
   /// Displacement at j per unit force at j (m/N).
-  double SelfCompliance(int j) const { return inf_phi_[inf_start_[j]]; }
+  double SelfCompliance(int j) const { return self_phi_[j]; }
   /// u_free = Relaxation(j) * u_prev.
   double Relaxation(int j) const { return relax_[j]; }
 
@@ -70,6 +70,9 @@ class DeformableModel {
   std::vector<Vec3> cp_;
   std::vector<int> inf_start_, inf_idx_;
   std::vector<double> inf_phi_;
+  /// each point's own phi_jj (the first of its influence), packed: the contact space
+  /// reads it for every contact, and inf_phi_ is megabytes on a dense body
+  std::vector<double> self_phi_;
   std::vector<int> nb_start_, nb_idx_;  // interpolation candidates per leaf
   std::vector<double> relax_;
   double spacing_ = 0.0;
