@@ -281,7 +281,12 @@ bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::str
       }
       WaitUntilNs(next, opt.pacing.spin_ns);
     }
-    sim_end_ns.store(SteadyNanoseconds());
+    // a thread held off the core at the end (another real-time loop on it, throttling)
+    // gave up the slots from its schedule's position to now: counted as skipped
+    const int64_t exit_ns = SteadyNanoseconds();
+    const int64_t next = anchor + k * period_ns;
+    if (exit_ns - next >= period_ns) skipped.fetch_add((exit_ns - next) / period_ns, std::memory_order_relaxed);
+    sim_end_ns.store(exit_ns);
   });
 
   // this thread: LCM publishing and the status line
