@@ -8,10 +8,12 @@
 #include <sys/uio.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <chrono>
 #include <cstdio>
 #include <cstring>
+#include <ctime>
 #include <vector>
 
 namespace gs::tracking {
@@ -23,8 +25,8 @@ int64_t SteadyNanoseconds() {
 
 namespace {
 
-int64_t SystemMicroseconds() {
-  return std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch())
+int64_t SystemNanoseconds() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch())
       .count();
 }
 
@@ -74,11 +76,15 @@ bool UdpReceiver::Open(const UdpOptions& o, std::string* error) {
   }
   // the kernel counts the datagrams it drops on a full buffer and tells us with each datagram
   setsockopt(fd_, SOL_SOCKET, SO_RXQ_OVFL, &one, sizeof(one));
+  // and stamps each datagram when it reaches the socket: a receiver thread woken late (a
+  // loaded machine, the datagrams queued before it started) still sees the true arrivals
+  setsockopt(fd_, SOL_SOCKET, SO_TIMESTAMPNS, &one, sizeof(one));
   errno = 0;
   sockaddr_in sa{};
   sa.sin_family = AF_INET;
   sa.sin_port = htons(static_cast<uint16_t>(o.port));
   sa.sin_addr = o.multicast_group.empty() ? bind_addr : in_addr{htonl(INADDR_ANY)};
+  opened_ns_ = SteadyNanoseconds();  // no datagram reaches the socket before it is bound
   if (bind(fd_, reinterpret_cast<sockaddr*>(&sa), sizeof(sa)) != 0)
     return fail("cannot bind UDP port " + std::to_string(o.port));
   socklen_t len = sizeof(sa);
@@ -131,6 +137,7 @@ void UdpReceiver::Stop() {
 void UdpReceiver::Loop() {
   std::vector<char> buffer(kBufferBytes + 1);
   uint64_t sequence = 0;
+  int64_t last_monotonic_ns = opened_ns_, last_utime = 0;
   while (!stop_.load(std::memory_order_relaxed)) {
     pollfd p{fd_, POLLIN, 0};
     const int r = poll(&p, 1, 50);
@@ -142,7 +149,7 @@ void UdpReceiver::Loop() {
     for (;;) {
       sockaddr_in from{};
       iovec iov{buffer.data(), kBufferBytes};
-      alignas(cmsghdr) char control[CMSG_SPACE(sizeof(uint32_t))];
+      alignas(cmsghdr) char control[CMSG_SPACE(sizeof(uint32_t)) + CMSG_SPACE(sizeof(timespec))];
       msghdr msg{};
       msg.msg_name = &from;
       msg.msg_namelen = sizeof(from);
@@ -155,16 +162,31 @@ void UdpReceiver::Loop() {
         if (errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR) stats_.socket_errors++;
         break;
       }
+      Datagram d;
+      d.monotonic_ns = SteadyNanoseconds();
+      const int64_t read_real_ns = SystemNanoseconds();
+      int64_t arrival_real_ns = read_real_ns;
       for (cmsghdr* c = CMSG_FIRSTHDR(&msg); c; c = CMSG_NXTHDR(&msg, c)) {
         if (c->cmsg_level == SOL_SOCKET && c->cmsg_type == SO_RXQ_OVFL) {
           uint32_t dropped = 0;  // the socket's running count
           std::memcpy(&dropped, CMSG_DATA(c), sizeof(dropped));
           stats_.kernel_drops.store(dropped, std::memory_order_relaxed);
+        } else if (c->cmsg_level == SOL_SOCKET && c->cmsg_type == SCM_TIMESTAMPNS) {
+          timespec ts{};
+          std::memcpy(&ts, CMSG_DATA(c), sizeof(ts));
+          arrival_real_ns = static_cast<int64_t>(ts.tv_sec) * 1000000000 + ts.tv_nsec;
         }
       }
-      Datagram d;
-      d.monotonic_ns = SteadyNanoseconds();
-      d.utime = SystemMicroseconds();
+      // the kernel's stamp is on the system clock: the datagram's age when read moves the
+      // steady clock's reading back by as much (never forward, never before the socket opened).
+      // Stamps never go backwards from one datagram to the next: loopback may deliver a few
+      // out of order, and datagrams the kernel queued before it had turned its stamping on
+      // (it does so shortly after the socket asks) carry the time they were read instead.
+      const int64_t age_ns = std::clamp<int64_t>(read_real_ns - arrival_real_ns, 0, d.monotonic_ns - opened_ns_);
+      d.monotonic_ns = std::max(d.monotonic_ns - age_ns, last_monotonic_ns);
+      d.utime = std::max((read_real_ns - age_ns) / 1000, last_utime);
+      last_monotonic_ns = d.monotonic_ns;
+      last_utime = d.utime;
       if (!allowed_.empty()) {
         bool ok = false;
         for (uint32_t a : allowed_) ok = ok || a == from.sin_addr.s_addr;

@@ -1,7 +1,7 @@
 // The UDP receiving end of a DTrack output channel: a socket bound to a port
 // (optionally joined to a multicast group, optionally accepting only listed
-// senders), 64 KiB datagram buffers, and a thread that stamps each datagram's
-// arrival and hands it to a callback. The callback runs on the receiver thread.
+// senders), 64 KiB datagram buffers, and a thread that hands each datagram, stamped
+// with its arrival at the socket, to a callback. The callback runs on the receiver thread.
 #pragma once
 
 #include <atomic>
@@ -26,8 +26,10 @@ struct Datagram {
   const char* data = nullptr;
   size_t size = 0;
   bool truncated = false;       ///< longer than the 64 KiB buffer: only its start is in data
-  int64_t utime = 0;            ///< arrival, system clock, microseconds since the epoch
-  int64_t monotonic_ns = 0;     ///< arrival, steady clock, nanoseconds
+  /// Arrival at the socket (the kernel's SO_TIMESTAMPNS stamp, not the moment the
+  /// receiver thread read it): system clock, microseconds since the epoch
+  int64_t utime = 0;
+  int64_t monotonic_ns = 0;     ///< the same arrival on the steady clock, nanoseconds
   uint64_t sequence = 0;        ///< 0, 1, 2, ... accepted datagrams
   char source[32] = {};         ///< "a.b.c.d:port"
 };
@@ -73,6 +75,7 @@ class UdpReceiver {
   int fd_ = -1;
   int port_ = 0;
   int rcvbuf_granted_ = 0;
+  int64_t opened_ns_ = 0;  // steady clock, just before the socket was bound
   std::vector<uint32_t> allowed_;  // network byte order
   Callback callback_;
   std::thread thread_;

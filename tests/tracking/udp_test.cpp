@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <cstdio>
+#include <memory>
 #include <mutex>
 #include <thread>
 
@@ -15,7 +17,8 @@ struct Collected {
   std::mutex mu;
   std::vector<std::string> data;
   std::vector<uint64_t> sequence;
-  std::vector<int64_t> arrival;
+  std::vector<int64_t> arrival;  // steady clock, ns
+  std::vector<int64_t> utime;    // system clock, us
   std::string source;
 };
 
@@ -63,6 +66,59 @@ TEST(UdpReceiver, DatagramsArriveWholeStampedAndNumbered) {
   }
   EXPECT_EQ(c.source.rfind("127.0.0.1:", 0), 0u) << c.source;
   EXPECT_EQ(rx.stats().received.load(), 40u);
+}
+
+// Datagrams that wait in the socket (a receiver thread started late, or woken late on a
+// loaded machine) keep the times they arrived at, not the time they were read.
+TEST(UdpReceiver, DatagramsQueuedBeforeTheThreadReadsThemKeepTheirArrivalTimes) {
+  // The kernel turns its receive stamping on shortly after the first socket in the system
+  // asks for it (a deferred work item, slow on a loaded machine); datagrams queued before
+  // that are stamped when read. The first receiver stays open, keeping stamping on, while
+  // later attempts run; read-time stamps could never pass the spacing check below.
+  std::vector<std::unique_ptr<UdpReceiver>> receivers;
+  for (int attempt = 0; attempt < 20; ++attempt) {
+    auto& rx = *receivers.emplace_back(std::make_unique<UdpReceiver>());
+    UdpOptions o;
+    o.port = 0;
+    o.bind_address = "127.0.0.1";
+    std::string error;
+    ASSERT_TRUE(rx.Open(o, &error)) << error;
+    UdpSender tx;
+    ASSERT_TRUE(tx.Open("127.0.0.1", rx.port(), &error)) << error;
+    std::vector<int64_t> sent;
+    for (int i = 0; i < 3; ++i) {
+      if (i) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+      sent.push_back(SteadyNanoseconds());
+      ASSERT_TRUE(tx.Send("fr 1\r\n", 6));
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    const int64_t started = SteadyNanoseconds();
+    Collected c;
+    rx.Start([&](const Datagram& d) {
+      std::lock_guard<std::mutex> lock(c.mu);
+      c.arrival.push_back(d.monotonic_ns);
+      c.utime.push_back(d.utime);
+    });
+    for (int k = 0; k < 400 && rx.stats().received.load() < 3; ++k)
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    rx.Stop();
+    ASSERT_EQ(c.arrival.size(), 3u);
+    if (c.arrival[2] >= started && attempt < 19) continue;  // stamping was not on yet
+    for (int i = 0; i < 3; ++i) {
+      // each stamp lies between its send and the next (loopback delivers within the call)
+      EXPECT_GE(c.arrival[i], sent[i]) << i;
+      EXPECT_LT(c.arrival[i], i < 2 ? sent[i + 1] : started) << i;
+      if (i) {
+        // the system-clock stamp moves with the steady one (to a few ms, should the clock be stepped)
+        const double steady_ms = 1e-6 * static_cast<double>(c.arrival[i] - c.arrival[i - 1]);
+        const double system_ms = 1e-3 * static_cast<double>(c.utime[i] - c.utime[i - 1]);
+        EXPECT_GE(steady_ms, 95.0) << i;
+        EXPECT_NEAR(system_ms, steady_ms, 5.0) << i;
+      }
+    }
+    std::printf("stamps taken by the kernel from attempt %d on\n", attempt);
+    return;
+  }
 }
 
 TEST(UdpReceiver, AllowListRejectsOtherSenders) {
