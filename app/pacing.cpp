@@ -1,15 +1,22 @@
 #include "app/pacing.h"
 
 #include <errno.h>
+#include <fcntl.h>
 #include <pthread.h>
 #include <sched.h>
 #include <sys/mman.h>
 #include <sys/prctl.h>
+#include <sys/file.h>
 #include <sys/resource.h>
+#include <sys/stat.h>
 #include <time.h>
 #include <unistd.h>
 
+#include <cstdio>
+#include <cstdlib>
 #include <cstring>
+#include <map>
+#include <mutex>
 
 #if defined(__x86_64__) || defined(__i386__)
 #include <immintrin.h>
@@ -41,6 +48,34 @@ void Append(std::string* to, const std::string& what) {
 
 }  // namespace
 
+std::string ClaimCore(int cpu, const std::string& dir) {
+  static std::mutex mu;
+  static std::map<std::string, int> held;  // lock file -> its descriptor, open until exit
+  const std::string path = dir + "/graspsim-core-" + std::to_string(cpu) + ".lock";
+  std::lock_guard<std::mutex> lock(mu);
+  if (held.count(path)) return "";
+  // any user may lock it (flock needs only a descriptor): created readable and writable by all
+  int fd = open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0666);
+  if (fd >= 0) fchmod(fd, 0666);
+  if (fd < 0) fd = open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return "";  // no lock file, no check (the claim is a courtesy, not a requirement)
+  if (flock(fd, LOCK_EX | LOCK_NB) == 0) {
+    held[path] = fd;
+    const std::string pid = std::to_string(getpid()) + "\n";
+    if (ftruncate(fd, 0) == 0 && write(fd, pid.data(), pid.size()) < 0) {
+      // a read-only lock file keeps the claim without the pid
+    }
+    return "";
+  }
+  char buf[32] = {};
+  const ssize_t n = pread(fd, buf, sizeof buf - 1, 0);
+  close(fd);
+  const long other = n > 0 ? std::strtol(buf, nullptr, 10) : 0;
+  return "core " + std::to_string(cpu) + " already runs another graspsim simulation loop" +
+         (other > 0 ? " (pid " + std::to_string(other) + ")" : std::string()) +
+         ": the two hold each other off it and fall behind; give one another core (--cpu)";
+}
+
 PacingGrant LockMemory(const PacingOptions& opt) {
   PacingGrant g;
 #if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
@@ -70,9 +105,10 @@ PacingGrant EnterRealtime(const PacingOptions& opt, const PacingGrant* locked) {
     CPU_ZERO(&set);
     CPU_SET(opt.cpu, &set);
     const int rc = pthread_setaffinity_np(pthread_self(), sizeof set, &set);
-    if (rc == 0)
+    if (rc == 0) {
       g.cpu = opt.cpu;
-    else
+      g.refused = ClaimCore(opt.cpu);
+    } else
       g.refused = "pinning to core " + std::to_string(opt.cpu) + " refused (" + std::strerror(rc) + ")";
   } else if (opt.cpu >= 0 && cpus > 1) {
     g.refused = "core " + std::to_string(opt.cpu) + " does not exist (" + std::to_string(cpus) +

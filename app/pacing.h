@@ -52,6 +52,14 @@ PacingGrant LockMemory(const PacingOptions& opt);
 /// already did (null: locks here).
 PacingGrant EnterRealtime(const PacingOptions& opt, const PacingGrant* locked = nullptr);
 
+/// Claims `cpu` for this process's simulation loop: an advisory lock on the file
+/// `dir`/graspsim-core-<cpu>.lock, held until the process exits. Two real-time loops
+/// pinned to one core hold each other off it (a loop running behind never sleeps):
+/// "" when the core was free or is already this process's, else a message naming the
+/// process that holds it. EnterRealtime claims the core it pins to and says so in
+/// `refused`; the loop runs anyway.
+std::string ClaimCore(int cpu, const std::string& dir = "/tmp");
+
 /// Back to normal scheduling for the calling thread (memory stays locked until exit).
 void LeaveRealtime();
 

@@ -6,7 +6,12 @@
 #include <gtest/gtest.h>
 #include <pthread.h>
 #include <sched.h>
+#include <sys/wait.h>
 #include <unistd.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <string>
 
 #include <thread>
 
@@ -80,6 +85,42 @@ TEST(Pacing, PinsToAnExistingCoreAndSaysSoOfOneThatIsNot) {
   EXPECT_EQ(none.grant.cpu, -1);
   EXPECT_GT(none.cpus_allowed, 1);
   EXPECT_NE(none.grant.refused.find("core 1023 does not exist"), std::string::npos) << none.grant.refused;
+}
+
+// Two simulation loops pinned to one core hold each other off it: the second process to
+// claim a core hears which process has it; a claim dies with its process.
+TEST(Pacing, ASecondProcessOnAClaimedCoreIsToldWhoHasIt) {
+  char dir_template[] = "/tmp/graspsim_claim_XXXXXX";
+  ASSERT_NE(mkdtemp(dir_template), nullptr);
+  const std::string dir = dir_template;
+  int claimed[2], release[2];
+  ASSERT_EQ(pipe(claimed), 0);
+  ASSERT_EQ(pipe(release), 0);
+  const pid_t child = fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    const bool ok = ClaimCore(3, dir).empty();
+    char c = ok ? 'y' : 'n';
+    (void)!write(claimed[1], &c, 1);
+    (void)!read(release[0], &c, 1);  // holds the claim until the parent is done
+    _exit(0);
+  }
+  char c = 0;
+  ASSERT_EQ(read(claimed[0], &c, 1), 1);
+  EXPECT_EQ(c, 'y') << "the first claim of a free core succeeds";
+  const std::string told = ClaimCore(3, dir);
+  EXPECT_NE(told.find("core 3 already runs another graspsim simulation loop (pid " + std::to_string(child) + ")"),
+            std::string::npos)
+      << told;
+  EXPECT_TRUE(ClaimCore(4, dir).empty()) << "another core is free";
+  EXPECT_TRUE(ClaimCore(4, dir).empty()) << "a core this process holds stays its own";
+  (void)!write(release[1], &c, 1);
+  int status = 0;
+  ASSERT_EQ(waitpid(child, &status, 0), child);
+  EXPECT_TRUE(ClaimCore(3, dir).empty()) << "the claim ended with its process";
+  for (int fd : {claimed[0], claimed[1], release[0], release[1]}) close(fd);
+  for (int core : {3, 4}) std::remove((dir + "/graspsim-core-" + std::to_string(core) + ".lock").c_str());
+  rmdir(dir.c_str());
 }
 
 TEST(Pacing, WaitEndsAtItsDeadlineAndReturnsAtOnceWhenItHasPassed) {
