@@ -72,8 +72,38 @@ void BuildSideInfluence(World& w, Body& b, ContactSide* side) {
   side->w_deform = k;
 }
 
+// Last step's entry of a contact key, in a list of last step's entries (rows or
+// forces). Collision detection gives contacts in the same order step after step
+// (each pair's leaves in tree order), so the entry after the last one found is
+// tried first; the hash index over the list is built at the first miss of the step
+// only. A step whose contacts all persist in order does no hashing at all.
+template <class KeyAt>
+class PrevLookup {
+ public:
+  PrevLookup(KeyIndex* index, int size, KeyAt key_at) : index_(index), size_(size), key_at_(key_at) {}
+  int Find(uint64_t key) {
+    if (next_ < size_ && key_at_(next_) == key) return next_++;
+    if (!indexed_) {
+      index_->Clear(size_);
+      for (int i = 0; i < size_; ++i) index_->Insert(key_at_(i), i);
+      indexed_ = true;
+    }
+    const int found = index_->Find(key);
+    if (found >= 0) next_ = found + 1;
+    return found;
+  }
+
+ private:
+  KeyIndex* index_;
+  int size_;
+  KeyAt key_at_;
+  int next_ = 0;
+  bool indexed_ = false;
+};
+
 // the free displacement's share of the gap and slip, the held-back overlap, the warm start
-void FinishRow(World& w, ContactRow* row, double gap_def, const Vec3& slip_def) {
+template <class WarmLookup>
+void FinishRow(World& w, ContactRow* row, double gap_def, const Vec3& slip_def, WarmLookup* warm_lookup) {
   const Contact& c = row->contact;
   // normal: position-level gap after free motion (eq. 6); tangents: free slip over the step
   row->q += Vec3(gap_def, row->frame.row(1).dot(slip_def), row->frame.row(2).dot(slip_def));
@@ -85,7 +115,7 @@ void FinishRow(World& w, ContactRow* row, double gap_def, const Vec3& slip_def) 
   }
   row->r.setZero();
   // warm start: the previous world force of the same key, in the new frame
-  const int warm = w.warm_index.Find(c.key);
+  const int warm = warm_lookup->Find(c.key);
   if (warm >= 0) row->r = row->frame * w.warm_prev[warm].second;
 }
 
@@ -98,11 +128,13 @@ void BuildContactSpace(World& w) {
   std::swap(w.rows, w.rows_prev);
   std::swap(w.side_inf_idx, w.side_inf_idx_prev);
   std::swap(w.side_inf_phi, w.side_inf_phi_prev);
-  w.rows_prev_index.Clear(static_cast<int>(w.rows_prev.size()));
-  if (w.params.reuse_contact_space)
-    for (size_t i = 0; i < w.rows_prev.size(); ++i) w.rows_prev_index.Insert(w.rows_prev[i].contact.key, static_cast<int>(i));
-  w.warm_index.Clear(static_cast<int>(w.warm_prev.size()));
-  for (size_t i = 0; i < w.warm_prev.size(); ++i) w.warm_index.Insert(w.warm_prev[i].first, static_cast<int>(i));
+  // the last step's row and force of each contact key (the rows only when reused)
+  const auto prev_key = [&w](int i) { return w.rows_prev[i].contact.key; };
+  PrevLookup<decltype(prev_key)> prev_rows(&w.rows_prev_index,
+                                           w.params.reuse_contact_space ? static_cast<int>(w.rows_prev.size()) : 0,
+                                           prev_key);
+  const auto warm_key = [&w](int i) { return w.warm_prev[i].first; };
+  PrevLookup<decltype(warm_key)> warm_forces(&w.warm_index, static_cast<int>(w.warm_prev.size()), warm_key);
   w.rows.clear();
   w.side_jacobians.clear();
   w.side_inf_idx.clear();
@@ -124,7 +156,7 @@ void BuildContactSpace(World& w) {
     Vec3 slip = Vec3::Zero();
     row.w_diag.setZero();
     // the same contact in the last step, if any
-    row.prev = w.rows_prev_index.Find(c.key);
+    row.prev = prev_rows.Find(c.key);
     for (int s = 0; s < 2; ++s) {
       const Body& b = w.bodies[c.body[s]];
       ContactSide& side = row.side[s];
@@ -262,7 +294,7 @@ void BuildContactSpace(World& w) {
       slip_def += side.sign * (uf - up);
       row.gap_start += side.sign * c.normal.dot(up);
     }
-    FinishRow(w, &row, gap_def, slip_def);
+    FinishRow(w, &row, gap_def, slip_def, &warm_forces);
   }
   // the solver's pointers to the merged influences (the buffers have stopped growing)
   for (ContactRow& row : w.rows)
