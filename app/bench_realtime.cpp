@@ -100,6 +100,11 @@ struct RunResult {
   int64_t missed = 0;           ///< steps that ended after their deadline
   int64_t late_runs = 0;        ///< runs of consecutive late steps (one delay makes a run while the replay catches up)
   int64_t overlong = 0;         ///< steps whose own loop time exceeded the period (late by their own work)
+  // each missed deadline by its cause (the three add up to `missed`):
+  int64_t missed_own = 0;       ///< the step's own work: it began within its budget's slack and still ended late
+  int64_t missed_woke_late = 0; ///< the machine: the previous step was on time, but this one began later than
+                                ///< the slack its budget leaves ((1 - step budget) of a timestep)
+  int64_t missed_carried = 0;   ///< catching up: the previous step was late already
   double load_start = 0, load_end = 0;  ///< the machine's 1-minute load average before and after
   double worst_late_ms = 0.0;   ///< largest (end - deadline)
   double step_median_ms = 0, step_p99_ms = 0, step_max_ms = 0;  ///< World::Step
@@ -152,6 +157,9 @@ bool RunOnce(const std::string& scene, const Session& session, double seconds, b
   const int64_t start = MonotonicNs() + 2 * period;
   out->load_start = LoadAverage();
   bool was_late = false;
+  // how late a step may begin and still have its budget: the part of the slot the budget leaves free
+  const int64_t slack =
+      step_budget > 0.0 && step_budget < 1.0 ? static_cast<int64_t>(std::llround((1.0 - step_budget) * period)) : 0;
   for (int64_t k = 0; k < steps; ++k) {
     WaitUntilNs(start + k * period, po.spin_ns);
     const int64_t begin = MonotonicNs();
@@ -177,11 +185,19 @@ bool RunOnce(const std::string& scene, const Session& session, double seconds, b
     const int64_t end = MonotonicNs();
     const int64_t late = end - (start + (k + 1) * period);
     if (end - begin > period) ++out->overlong;
+    const bool prev_late = was_late;
     if (late > 0 && !was_late) ++out->late_runs;
     was_late = late > 0;
     if (late > 0) {
       ++out->missed;
       out->worst_late_ms = std::max(out->worst_late_ms, 1e-6 * static_cast<double>(late));
+      const int64_t woke = begin - (start + k * period);
+      if (end - begin <= period && prev_late)
+        ++out->missed_carried;
+      else if (end - begin <= period && woke > slack)
+        ++out->missed_woke_late;
+      else
+        ++out->missed_own;
     }
     if (trace) {
       const StepProfile& p = w.profile;
@@ -303,7 +319,8 @@ bool WriteTrace(FILE* f, const std::string& path, const RunResult& with, const R
 
 void PrintJson(const RunResult& r, double seconds) {
   std::printf("{\"bench\":\"realtime\",\"rendering\":%s,\"seconds\":%g,\"steps\":%lld,\"missed_deadlines\":%lld,"
-              "\"late_runs\":%lld,\"overlong_steps\":%lld,"
+              "\"late_runs\":%lld,\"overlong_steps\":%lld,\"missed_own_work\":%lld,\"missed_woke_late\":%lld,"
+              "\"missed_carried\":%lld,"
               "\"worst_lateness_ms\":%.4f,\"step_ms_median\":%.4f,\"step_ms_p99\":%.4f,\"step_ms_max\":%.4f,"
               "\"loop_ms_median\":%.4f,\"loop_ms_p99\":%.4f,\"wall_s\":%.3f,\"frames\":%d,\"frames_taken\":%d,"
               "\"frames_dropped\":%d,\"max_contacts\":%d,\"unconverged_steps\":%lld,\"budget_stops\":%lld,"
@@ -311,7 +328,9 @@ void PrintJson(const RunResult& r, double seconds) {
               "\"wake_ms_p99\":%.4f,\"wake_ms_max\":%.4f,\"pacing\":\"%s\",\"pacing_refused\":\"%s\","
               "\"load_average_start\":%.2f,\"load_average_end\":%.2f}\n",
               r.render ? "true" : "false", seconds, static_cast<long long>(r.steps), static_cast<long long>(r.missed),
-              static_cast<long long>(r.late_runs), static_cast<long long>(r.overlong), r.worst_late_ms, r.step_median_ms, r.step_p99_ms, r.step_max_ms, r.loop_median_ms, r.loop_p99_ms,
+              static_cast<long long>(r.late_runs), static_cast<long long>(r.overlong), static_cast<long long>(r.missed_own),
+              static_cast<long long>(r.missed_woke_late), static_cast<long long>(r.missed_carried), r.worst_late_ms,
+              r.step_median_ms, r.step_p99_ms, r.step_max_ms, r.loop_median_ms, r.loop_p99_ms,
               r.wall_s, r.frames_drawn, r.frames_taken, r.frames_dropped, r.max_contacts, static_cast<long long>(r.unconverged),
               static_cast<long long>(r.budget_stops), r.residual_max, r.lifts, r.datagrams, r.wake_p99_ms,
               r.wake_max_ms, r.pacing.c_str(), r.refused.c_str(), r.load_start, r.load_end);
@@ -360,15 +379,18 @@ int RunBenchRealtime(const BenchOptions& opt) {
                 seconds, static_cast<long long>(empty.steps), static_cast<long long>(empty.missed),
                 static_cast<long long>(empty.late_runs), empty.worst_late_ms, empty.wake_p99_ms, empty.wake_max_ms);
     std::printf("{\"bench\":\"realtime\",\"seconds\":%g,\"steps\":%lld,\"missed_deadlines\":%lld,"
-                "\"late_runs\":%lld,\"overlong_steps\":%lld,"
+                "\"late_runs\":%lld,\"overlong_steps\":%lld,\"missed_own_work\":%lld,\"missed_woke_late\":%lld,"
+                "\"missed_carried\":%lld,\"no_render_missed_own_work\":%lld,"
                 "\"worst_lateness_ms\":%.4f,\"step_ms_median\":%.4f,\"step_ms_p99\":%.4f,\"frames\":%d,"
                 "\"frames_dropped\":%d,\"no_render_missed_deadlines\":%lld,\"no_render_worst_lateness_ms\":%.4f,"
                 "\"no_render_step_ms_median\":%.4f,\"empty_loop_missed_deadlines\":%lld,\"empty_loop_late_runs\":%lld,"
                 "\"unconverged_steps\":%lld,\"budget_stops\":%lld,\"step_budget\":%g,"
                 "\"pacing\":\"%s\",\"target_met\":%s}\n",
                 seconds, static_cast<long long>(with.steps), static_cast<long long>(with.missed),
-                static_cast<long long>(with.late_runs), static_cast<long long>(with.overlong), with.worst_late_ms,
-                with.step_median_ms, with.step_p99_ms, with.frames_drawn, with.frames_dropped,
+                static_cast<long long>(with.late_runs), static_cast<long long>(with.overlong),
+                static_cast<long long>(with.missed_own), static_cast<long long>(with.missed_woke_late),
+                static_cast<long long>(with.missed_carried), static_cast<long long>(without.missed_own),
+                with.worst_late_ms, with.step_median_ms, with.step_p99_ms, with.frames_drawn, with.frames_dropped,
                 static_cast<long long>(without.missed), without.worst_late_ms, without.step_median_ms,
                 static_cast<long long>(empty.missed), static_cast<long long>(empty.late_runs),
                 static_cast<long long>(with.unconverged), static_cast<long long>(with.budget_stops), opt.step_budget,
@@ -388,6 +410,11 @@ int RunBenchRealtime(const BenchOptions& opt) {
               static_cast<long long>(empty.late_runs), "-", empty.worst_late_ms, "-", "-", "-", "-", empty.wake_p99_ms,
               empty.wake_max_ms);
   std::printf("  (empty loop: the same pacing with no step, the machine's own misses)\n");
+  for (const RunResult* r : {&with, &without})
+    std::printf("  %s: missed deadlines by cause: %lld the step's own work, %lld began late (the machine woke the "
+                "loop past the budget's slack), %lld catching up after a late step\n",
+                r->render ? "with rendering" : "without rendering", static_cast<long long>(r->missed_own),
+                static_cast<long long>(r->missed_woke_late), static_cast<long long>(r->missed_carried));
   std::printf("  simulation thread: %s%s%s; spin %.0f us before each deadline\n", with.pacing.c_str(),
               with.refused.empty() ? "" : "; ", with.refused.c_str(), opt.spin_us);
   for (const RunResult* r : {&with, &without})

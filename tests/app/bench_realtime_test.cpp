@@ -66,6 +66,14 @@ TEST(BenchRealtime, TwoSecondsGiveConsistentCounts) {
       EXPECT_GT(JsonField(*l, "residual_max"), 0) << *l;
     }
   }
+  // every missed deadline has one cause: the step's own work, a late start, or catching up
+  for (const std::string* l : {&without, &with, &last}) {
+    EXPECT_EQ(JsonField(*l, "missed_own_work") + JsonField(*l, "missed_woke_late") + JsonField(*l, "missed_carried"),
+              JsonField(*l, "missed_deadlines"))
+        << *l;
+    EXPECT_LE(JsonField(*l, "overlong_steps"), JsonField(*l, "missed_own_work")) << *l;
+  }
+  EXPECT_EQ(JsonField(last, "no_render_missed_own_work"), JsonField(without, "missed_own_work"));
   EXPECT_EQ(JsonField(last, "budget_stops"), JsonField(with, "budget_stops"));
   EXPECT_EQ(JsonField(last, "step_budget"), 0.8);
   // the grasp happens in both; the replay is deterministic in simulated time unless the
