@@ -34,6 +34,11 @@ bool SmoothlyCurved(const SphereTree& t, int leaf) {
 
 double Seconds(Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double>(b - a).count(); }
 
+// a node pair as one word of the traversal stack, and back
+uint64_t PackPair(int a, int b) { return (static_cast<uint64_t>(static_cast<uint32_t>(a)) << 32) | static_cast<uint32_t>(b); }
+int PairFirst(uint64_t p) { return static_cast<int>(static_cast<uint32_t>(p >> 32)); }
+int PairSecond(uint64_t p) { return static_cast<int>(static_cast<uint32_t>(p)); }
+
 // moves the nodes of a tree into another frame, for traversal
 void MoveNodes(const SphereTree& t, const Pose& to, std::vector<TraversalNode>* out) {
   const TraversalNode* n = t.traversal();
@@ -65,12 +70,13 @@ void TraverseTrees(const TraversalNode* na, const int* end_a, int root_a, const 
     if (a.IsLeaf() && b.IsLeaf())
       s->pairs.push_back({a.leaf(), b.leaf(), d2, d});
     else
-      s->stack.emplace_back(ia, ib);
+      s->stack.push_back(PackPair(ia, ib));
   };
   visit(root_a, root_b);
   while (!s->stack.empty()) {
-    const auto [ia, ib] = s->stack.back();
+    const uint64_t top = s->stack.back();
     s->stack.pop_back();
+    const int ia = PairFirst(top), ib = PairSecond(top);
     const TraversalNode& a = na[ia];
     const TraversalNode& b = nb[ib];
     // descend the larger node; a small subtree against a leaf is scanned: its
@@ -310,12 +316,12 @@ void CollidePlane(int id_q, const SphereTree& tq, const Pose& pose_q, int id_p, 
   const Vec3 n_q = pose_q.RotateInverse(n_world);
   const double offset = n_world.dot(pose_q.t - pose_p.t);  // signed distance of q's origin
   s->stack.clear();
-  s->stack.emplace_back(tq.root(), 0);
+  s->stack.push_back(PackPair(tq.root(), 0));
   int tests = 0;
   s->touched_a.clear();
   const TraversalNode* nodes = tq.traversal();
   while (!s->stack.empty()) {
-    const int ni = s->stack.back().first;
+    const int ni = PairFirst(s->stack.back());
     s->stack.pop_back();
     const TraversalNode& node = nodes[ni];
     ++tests;
@@ -323,8 +329,8 @@ void CollidePlane(int id_q, const SphereTree& tq, const Pose& pose_q, int id_p, 
     if (node.IsLeaf()) {
       s->touched_a.push_back(node.leaf());
     } else {
-      s->stack.emplace_back(node.child[1], 0);
-      s->stack.emplace_back(node.child[0], 0);
+      s->stack.push_back(PackPair(node.child[1], 0));
+      s->stack.push_back(PackPair(node.child[0], 0));
     }
   }
   stats->node_pairs += tests;
@@ -472,13 +478,13 @@ void CollidePair(int id_a, const CollisionShape& a, const Pose& pose_a, int id_b
       const double grown = (ta.growth_drift() - cache->drift_a) + (tb.growth_drift() - cache->drift_b);
       if (motion + grown <= cache->margin) {
         s->pairs.clear();
-        for (const auto& [la, lb] : cache->pairs) {
-          const TraversalNode& x = na[ta.leaf_node(la)];
-          const TraversalNode& y = nb[tb.leaf_node(lb)];
+        for (const auto& [ia, ib] : cache->pairs) {
+          const TraversalNode& x = na[ia];
+          const TraversalNode& y = nb[ib];
           const double reach = x.radius + y.radius + thr;
           const Vec3 d = x.center - y.center;
           const double d2 = d.squaredNorm();
-          if (d2 <= reach * reach) s->pairs.push_back({la, lb, d2, d});
+          if (d2 <= reach * reach) s->pairs.push_back({x.leaf(), y.leaf(), d2, d});
         }
         local.node_pairs += static_cast<int>(cache->pairs.size());
         local.leaf_pairs += static_cast<int>(s->pairs.size());
@@ -496,7 +502,8 @@ void CollidePair(int id_a, const CollisionShape& a, const Pose& pose_a, int id_b
       cache->valid = s->pairs.size() <= cache->limit;
       if (cache->valid) {
         cache->pairs.clear();
-        for (const CollisionScratch::LeafPair& p : s->pairs) cache->pairs.emplace_back(p.leaf_a, p.leaf_b);
+        for (const CollisionScratch::LeafPair& p : s->pairs)
+          cache->pairs.emplace_back(ta.leaf_node(p.leaf_a), tb.leaf_node(p.leaf_b));
         cache->moved = moved_pose;
         cache->in_b = in_b;
         cache->margin = margin;

@@ -83,7 +83,9 @@ struct CollisionScratch {
     double dist2;  // squared distance between the two leaf centres
     Vec3 d;        // centre of a minus centre of b, in the frame of the traversal
   };
-  std::vector<std::pair<int, int>> stack;
+  /// node pairs (a << 32 | b) still to descend: one 8-byte word written and read back
+  /// whole (a pair of ints stored apart and read as one stalls on store forwarding)
+  std::vector<uint64_t> stack;
   std::vector<LeafPair> pairs;
   std::vector<int> best_a, best_b;       // per leaf: best coupled leaf on the other body, -1 when none
   std::vector<double> best_a_d2, best_b_d2;
@@ -105,7 +107,7 @@ struct CollisionScratch {
 /// only adds a candidate. The list's capacity (`limit` pairs) is taken the first
 /// time the pair is traversed, once; a list that would outgrow it is not kept.
 struct PairCache {
-  std::vector<std::pair<int, int>> pairs;  ///< (leaf of a, leaf of b)
+  std::vector<std::pair<int, int>> pairs;  ///< the leaf pairs as (node of a, node of b): no leaf-to-node lookup when served
   size_t limit = 0;      ///< most pairs kept (0: no cache for this pair)
   Pose moved;            ///< the moved tree's pose in the other tree's frame when built
   bool in_b = false;     ///< a's tree was the moved one
