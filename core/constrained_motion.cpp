@@ -63,6 +63,12 @@ void ConstrainedMotion(World& w) {
     }
     for (Finger& f : w.hand.fingers) f.q = f.q_prev;
     for (ContactRow& r : w.rows) r.r.setZero();
+    // whatever was not finite may sit outside the live points, which the next free
+    // motion alone clears: back to exactly at rest everywhere but u
+    for (Body& b : w.bodies) {
+      std::fill(b.u_free.begin(), b.u_free.end(), Vec3::Zero());
+      std::fill(b.u_acc.begin(), b.u_acc.end(), Vec3::Zero());
+    }
   } else {
     for (Articulation& a : w.articulations) {
       const Vec6 dq = a.dq_free + a.dq;
@@ -82,16 +88,17 @@ void ConstrainedMotion(World& w) {
         b.angular_velocity = dq.tail<3>() / dt;
       }
     }
-    // control points: eq. 7, and what refit needs to know
+    // control points: eq. 7, and what refit needs to know (the live points: the
+    // others are at rest, u = u_free = u_acc = 0, and stay unchanged)
     for (Body& b : w.bodies) {
       if (!b.deform.enabled()) continue;
-      w.profile.work.deformed_points += b.deform.size();
-      for (int j = 0; j < b.deform.size(); ++j) {
+      w.profile.work.deformed_points += static_cast<int>(b.live.size());
+      for (int j : b.live) {
         const Vec3 u_new = b.u_free[j] + b.u_acc[j];
         if ((u_new - b.u[j]).squaredNorm() > 1e-24) b.u_changed[j] = 1;
         b.u[j] = u_new;
       }
-      for (int j = 0; j < b.deform.size(); ++j) {
+      for (int j : b.live) {
         if (!b.u_changed[j]) continue;
         const int* idx;
         const double* phi;

@@ -261,6 +261,8 @@ void BuildContactSpace(World& w) {
       ContactSide& side = row.side[s];
       if (!b.deform.enabled() || side.count == 0) continue;  // weights set with the rigid part
       ++w.profile.work.w_deform_sides;
+      // the control points this side's force reaches are integrated from now on
+      for (int k = 0; k < side.count; ++k) b.AddSource(side.idx[k]);
       const int begin = static_cast<int>(w.side_inf_idx.size());
       const ContactSide* ps = prev ? &prev->side[s] : nullptr;
       if (side.count == 1 && side.w[0] == 1.0) {

@@ -124,10 +124,10 @@ void FreeMotion(World& w) {
     }
   }
 
-  // deformation relaxes toward the rest shape
+  // deformation relaxes toward the rest shape (the live points: the others are at rest)
   for (Body& b : w.bodies) {
     if (!b.deform.enabled()) continue;
-    for (int j = 0; j < b.deform.size(); ++j) {
+    for (int j : b.live) {
       b.u_free[j] = b.deform.Relaxation(j) * b.u[j];
       b.u_acc[j].setZero();
     }

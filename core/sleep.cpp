@@ -53,7 +53,10 @@ void Wake(Body& b) {
 }  // namespace
 
 void World::WakeAll() {
-  for (Body& b : bodies) Wake(b);
+  for (Body& b : bodies) {
+    Wake(b);
+    if (b.deform.enabled()) b.AllLive();
+  }
 }
 
 void WakeSleepingBodies(World& w) {

@@ -122,6 +122,10 @@ void World::Finalize() {
     b.u_acc.assign(leaves, Vec3::Zero());
     b.u_spread.assign(leaves, 0.0);
     b.u_changed.assign(leaves, 0);
+    b.live.clear();
+    b.live.reserve(leaves);
+    b.live_mark.assign(leaves, 0);
+    b.source.assign(leaves, 0);
     b.inf_slot.assign(leaves, -1);
     b.pose_prev = b.pose;
     // a scene change wakes everything

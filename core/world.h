@@ -18,6 +18,7 @@
 // points. All buffers are sized by Finalize(); Step() does not allocate.
 #pragma once
 
+#include <algorithm>
 #include <chrono>
 #include <string>
 
@@ -68,6 +69,36 @@ struct Body {
   std::vector<Vec3> u_acc;    ///< displacement from this step's contact forces
   std::vector<double> u_spread;
   std::vector<uint8_t> u_changed;
+  /// The control points whose displacement the step integrates (free motion's
+  /// relaxation, constrained motion's eq. 7): every point a contact force can have
+  /// reached since Finalize, i.e. the influence of every control point a contact has
+  /// stood on (`source`). The others are exactly at rest (u = u_free = u_acc = 0)
+  /// and stay so without being visited: a grasp pays for the regions it touches, not
+  /// for the whole body. Points are never dropped (a contact kept from the last step
+  /// may still push them); Finalize empties the set and WakeAll fills it.
+  std::vector<int> live;
+  std::vector<uint8_t> live_mark;  ///< 1 for the points in `live`
+  std::vector<uint8_t> source;     ///< 1 for control points whose influence is in `live`
+  /// Puts control point j's influence into `live` (once per point).
+  void AddSource(int j) {
+    if (source[j]) return;
+    source[j] = 1;
+    const int* idx;
+    const double* phi;
+    const int m = deform.Influence(j, &idx, &phi);
+    for (int k = 0; k < m; ++k)
+      if (!live_mark[idx[k]]) {
+        live_mark[idx[k]] = 1;
+        live.push_back(idx[k]);
+      }
+  }
+  /// Every control point live (after u was written by hand).
+  void AllLive() {
+    live.resize(u.size());
+    for (size_t j = 0; j < u.size(); ++j) live[j] = static_cast<int>(j);
+    std::fill(live_mark.begin(), live_mark.end(), 1);
+    std::fill(source.begin(), source.end(), 1);
+  }
   std::vector<int> inf_slot;  ///< contact-space scratch: slot of a control point in a merged influence, -1
   bool emits_contacts = true; ///< false: one-pass contact, only other bodies' control points touch this one
   int finger = -1;            ///< for a fingertip, its finger
@@ -286,7 +317,8 @@ class World {
   /// One time step of params.dt.
   void Step();
   /// Wakes every sleeping body (call after changing a body's state by hand:
-  /// its pose, velocity, shape; drive and gravity changes are noticed).
+  /// its pose, velocity, shape, its displacements u; drive and gravity changes are
+  /// noticed). Every control point is integrated again from the next step (Body::live).
   void WakeAll();
   /// When the step in progress started, and how long the last step's constrained
   /// motion took (the solver's share of step_time_budget_s is computed from them).

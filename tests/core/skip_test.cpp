@@ -110,9 +110,46 @@ TEST(Skip, RigidBodiesHaveNoDeformationWork) {
   const StepWork& s = soft.profile.work;
   EXPECT_GT(s.w_deform_sides, 0);
   EXPECT_GT(s.propagations, 0);
-  EXPECT_EQ(s.deformed_points, 200);
+  // the points its contacts reach (Body::live), not the whole ball's 200
+  EXPECT_EQ(s.deformed_points, static_cast<int>(soft.bodies[1].live.size()));
+  EXPECT_GT(s.deformed_points, 0);
+  EXPECT_LT(s.deformed_points, 200);
   EXPECT_EQ(s.refit_trees, 1);
   EXPECT_GT(s.refit_nodes, 0);
+}
+
+// Only the control points a contact force can have reached are integrated; every
+// other point is exactly at rest, so skipping it changes nothing: the same ball
+// with every point integrated (WakeAll before each step) ends bit for bit the same.
+TEST(Skip, OnlyPointsAContactReachesAreIntegrated) {
+  World some, all;
+  BallOnPlane(some, true);
+  BallOnPlane(all, true);
+  some.params.sleep.enabled = all.params.sleep.enabled = false;  // WakeAll must change nothing else
+  for (int i = 0; i < 200; ++i) {
+    all.WakeAll();
+    some.Step();
+    all.Step();
+    ASSERT_FALSE(some.profile.rejected);
+  }
+  const Body& b = some.bodies[1];
+  ASSERT_EQ(static_cast<int>(all.bodies[1].live.size()), b.deform.size());
+  ASSERT_GT(b.live.size(), 0u);
+  ASSERT_LT(static_cast<int>(b.live.size()), b.deform.size());
+  EXPECT_EQ(all.profile.work.deformed_points, b.deform.size());
+  EXPECT_EQ(some.profile.work.deformed_points, static_cast<int>(b.live.size()));
+  int deformed = 0;
+  for (int j = 0; j < b.deform.size(); ++j) {
+    if (!b.live_mark[j]) {
+      EXPECT_EQ(b.u[j], Vec3::Zero()) << "point " << j << " is not live yet displaced";
+      EXPECT_EQ(b.u_acc[j], Vec3::Zero()) << "point " << j;
+    }
+    deformed += b.u[j] != Vec3::Zero() ? 1 : 0;
+    EXPECT_EQ(b.u[j], all.bodies[1].u[j]) << "point " << j;
+  }
+  EXPECT_GT(deformed, 0);
+  EXPECT_EQ(b.pose.t, all.bodies[1].pose.t);
+  EXPECT_EQ(b.pose.R, all.bodies[1].pose.R);
 }
 
 TEST(Skip, OnlyMovedSubtreesAreRefit) {
