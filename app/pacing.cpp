@@ -76,7 +76,7 @@ std::string ClaimCore(int cpu, const std::string& dir) {
          ": the two hold each other off it and fall behind; give one another core (--cpu)";
 }
 
-PacingGrant LockMemory(const PacingOptions& opt) {
+PacingGrant LockMemory([[maybe_unused]] const PacingOptions& opt) {
   PacingGrant g;
 #if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
   // a sanitizer's shadow memory is terabytes of reserved address space: not locked
