@@ -413,6 +413,7 @@ void CollisionScratch::Reserve(int max_leaves, int max_pairs) {
     best_b_d2.assign(max_leaves, std::numeric_limits<double>::infinity());
     lift_a.assign(max_leaves, std::numeric_limits<double>::infinity());
     lift_b.assign(max_leaves, std::numeric_limits<double>::infinity());
+    turned_normal.assign(max_leaves, Vec3::Zero());
   }
   touched_a.reserve(max_leaves);
   touched_b.reserve(max_leaves);
@@ -529,11 +530,19 @@ void CollidePair(int id_a, const CollisionShape& a, const Pose& pose_a, int id_b
   // height above b's slab is d . n_b, b's above a's is -d . n_a, each normal
   // turned into that frame (R maps a's frame to b's)
   const Mat3& R = a_in_b.R;
+  // (the moved tree's leaf normal is turned once per leaf, when the leaf is first met)
+  Vec3* turned = s->turned_normal.data();
   for (const CollisionScratch::LeafPair& p : s->pairs) {
-    const Vec3& nb = tb.leaf_normal(p.leaf_b);
-    const Vec3& na = ta.leaf_normal(p.leaf_a);
-    const double ha = (in_b ? p.d.dot(nb) : p.d.dot(R.transpose() * nb)) - tb.leaf_height(p.leaf_b);
-    const double hb = -(in_b ? p.d.dot(R * na) : p.d.dot(na)) - ta.leaf_height(p.leaf_a);
+    double ha, hb;
+    if (in_b) {
+      if (s->best_a[p.leaf_a] < 0) turned[p.leaf_a] = R * ta.leaf_normal(p.leaf_a);
+      ha = p.d.dot(tb.leaf_normal(p.leaf_b)) - tb.leaf_height(p.leaf_b);
+      hb = -p.d.dot(turned[p.leaf_a]) - ta.leaf_height(p.leaf_a);
+    } else {
+      if (s->best_b[p.leaf_b] < 0) turned[p.leaf_b] = R.transpose() * tb.leaf_normal(p.leaf_b);
+      ha = p.d.dot(turned[p.leaf_b]) - tb.leaf_height(p.leaf_b);
+      hb = -p.d.dot(ta.leaf_normal(p.leaf_a)) - ta.leaf_height(p.leaf_a);
+    }
     if (s->best_a[p.leaf_a] < 0) {
       s->touched_a.push_back(p.leaf_a);
       s->lift_a[p.leaf_a] = ha;

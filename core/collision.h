@@ -90,6 +90,7 @@ struct CollisionScratch {
   std::vector<int> best_a, best_b;       // per leaf: best coupled leaf on the other body, -1 when none
   std::vector<double> best_a_d2, best_b_d2;
   std::vector<double> lift_a, lift_b;    // per leaf: lowest height above the other body's overlapping leaf slabs
+  std::vector<Vec3> turned_normal;       // per leaf of the tree moved for traversal: its normal in the other's frame
   std::vector<int> touched_a, touched_b;
   std::vector<TraversalNode> moved;      // the smaller tree's nodes in the other body's frame
   std::vector<int> node_stack, ball;     // gathering the points around a query off the surface
