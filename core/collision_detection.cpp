@@ -15,16 +15,14 @@ void DetectCollisions(World& w) {
   // refit only the trees whose control points moved
   for (Body& b : w.bodies) {
     if (!b.deform.enabled() || b.geometry.is_plane) continue;
-    // only live control points move (constrained motion flags no other)
     bool any = false;
-    for (int j : b.live) any |= (b.u_changed[j] != 0);
+    for (uint8_t c : b.u_changed) any |= (c != 0);
     if (!any) continue;
     RefitStats rs;
-    b.geometry.tree.Refit(b.u.data(), b.u_spread.data(), b.u_changed.data(), w.params.refit_stop_level, &rs,
-                          b.live.data(), static_cast<int>(b.live.size()));
+    b.geometry.tree.Refit(b.u.data(), b.u_spread.data(), b.u_changed.data(), w.params.refit_stop_level, &rs);
     ++w.profile.work.refit_trees;
     w.profile.work.refit_nodes += rs.nodes_visited;
-    for (int j : b.live) b.u_changed[j] = 0;
+    std::fill(b.u_changed.begin(), b.u_changed.end(), 0);
   }
   const auto t1 = Clock::now();
   w.profile.refit = std::chrono::duration<double>(t1 - t0).count();

@@ -97,34 +97,18 @@ inline void ApplyArticulatedNormalDelta(World& w, const ContactRow& row, double 
 /// just stored to the row and read back at once stalls on store forwarding.
 EIGEN_ALWAYS_INLINE void AddFreeSideBlock(const Articulation& a, const Vec3& lever, const Vec3& n, const Vec3& t1,
                                           const Vec3& t2, Mat3* w) {
-  // In scalars, in the order of operations Eigen uses for the Vec3/Mat3 expressions
-  // f_i . (A f_j) (the same bits: a dot product is (x0 y0 + x1 y1) + x2 y2, a 3x3
-  // block times a vector one packet for rows 0-1 and a halves-first sum for row 2;
-  // tests/core/contact_jacobian_test.cpp holds the two to equality). Eigen computes
-  // a cross product one coefficient at a time, and a Vec3 of them stored to the
-  // stack and read back as a packet stalls on store forwarding.
-  const auto& m = a.a_inv;
-  const double l0 = lever[0], l1 = lever[1], l2 = lever[2];
-  const double f[3][3] = {{n[0], n[1], n[2]}, {t1[0], t1[1], t1[2]}, {t2[0], t2[1], t2[2]}};
-  double c[3][3], alf[3][3], aac[3][3];
+  const auto al = a.a_inv.topLeftCorner<3, 3>();
+  const auto aa = a.a_inv.bottomRightCorner<3, 3>();
+  const Vec3 f[3] = {n, t1, t2};
+  Vec3 c[3], alf[3], aac[3];
   for (int i = 0; i < 3; ++i) {
-    c[i][0] = l1 * f[i][2] - l2 * f[i][1];
-    c[i][1] = l2 * f[i][0] - l0 * f[i][2];
-    c[i][2] = l0 * f[i][1] - l1 * f[i][0];
-  }
-  for (int i = 0; i < 3; ++i) {
-    for (int r = 0; r < 2; ++r) {  // rows 0 and 1: one packet, column after column
-      alf[i][r] = (m(r, 0) * f[i][0] + m(r, 1) * f[i][1]) + m(r, 2) * f[i][2];
-      aac[i][r] = (m(3 + r, 3) * c[i][0] + m(3 + r, 4) * c[i][1]) + m(3 + r, 5) * c[i][2];
-    }
-    // row 2: Eigen's scalar reduction, halves first
-    alf[i][2] = m(2, 0) * f[i][0] + (m(2, 1) * f[i][1] + m(2, 2) * f[i][2]);
-    aac[i][2] = m(5, 3) * c[i][0] + (m(5, 4) * c[i][1] + m(5, 5) * c[i][2]);
+    c[i] = lever.cross(f[i]);
+    alf[i] = al * f[i];
+    aac[i] = aa * c[i];
   }
   for (int i = 0; i < 3; ++i)
     for (int j = i; j < 3; ++j) {
-      const double v = ((f[i][0] * alf[j][0] + f[i][1] * alf[j][1]) + f[i][2] * alf[j][2]) +
-                       ((c[i][0] * aac[j][0] + c[i][1] * aac[j][1]) + c[i][2] * aac[j][2]);
+      const double v = f[i].dot(alf[j]) + c[i].dot(aac[j]);
       (*w)(i, j) += v;
       if (j != i) (*w)(j, i) += v;
     }

@@ -276,7 +276,7 @@ int SphereTree::BuildNode(const PointCloud& cloud, int first, int count, int lea
 }
 
 void SphereTree::Refit(const Vec3* displacement, const double* spread, const uint8_t* changed, int stop_level,
-                       RefitStats* stats, const int* candidates, int num_candidates) {
+                       RefitStats* stats) {
   RefitStats local;
   if (stop_level < 0) stop_level = 0;
   if (stop_level != stop_level_) {
@@ -292,13 +292,10 @@ void SphereTree::Refit(const Vec3* displacement, const double* spread, const uin
     }
   }
 
-  // changed leaves: growth = displacement bound of their surface (each leaf on its
-  // own, the largest rise taken over all: the order the leaves are read in is free)
+  // changed leaves: growth = displacement bound of their surface
   dirty_.clear();
   double rise = 0.0;  // largest growth increase of a leaf
-  const int scan = candidates && num_candidates > 0 ? num_candidates : num_leaves();
-  for (int c = 0; c < scan; ++c) {
-    const int l = candidates && num_candidates > 0 ? candidates[c] : c;
+  for (int l = 0; l < num_leaves(); ++l) {
     if (!changed[l]) continue;
     ++local.leaves_changed;
     const int ni = leaf_node_[l];

@@ -122,10 +122,8 @@ class SphereTree {
   /// touched), `spread[leaf]` bounds how far any surface point of the leaf moved
   /// relative to the control point (m). Nodes shallower than `stop_level` are not
   /// recomputed: their radius is inflated by the largest growth below them.
-  /// `candidates` (with `num_candidates` > 0) lists the only leaves `changed` may
-  /// flag: those are read instead of every leaf (the same result, in any order).
   void Refit(const Vec3* displacement, const double* spread, const uint8_t* changed, int stop_level,
-             RefitStats* stats, const int* candidates = nullptr, int num_candidates = 0);
+             RefitStats* stats);
   /// Back to the rest shape.
   void ResetRefit();
   /// Radius of node i as refit (rest radius plus growth), what traversal must use.
