@@ -52,16 +52,6 @@ void BuildSideInfluence(World& w, Body& b, ContactSide* side) {
     const double* phi;
     const int m = b.deform.Influence(side->idx[k], &idx, &phi);
     const double wk = side->w[k];
-    if (k == 0) {
-      // the first point's entries are all new (its influence lists each point once)
-      for (int j = 0; j < m; ++j) {
-        slots[idx[j]] = end + j;
-        out_idx[end + j] = idx[j];
-        out_phi[end + j] += wk * phi[j];
-      }
-      end += m;
-      continue;
-    }
     for (int j = 0; j < m; ++j) {
       int slot = slots[idx[j]];
       if (slot < 0) {

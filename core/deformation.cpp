@@ -108,27 +108,23 @@ int DeformableModel::Interpolate(const Vec3& p, int near, int* idx, double* w, i
   // nearest candidates (the heaviest weights), chosen by squared distance so that
   // only the kept ones pay for an exp (w holds squared distances until then)
   const double h2 = spacing_ * spacing_;
-  // (the farthest kept candidate, the first of equals, is found again only when it
-  // has been replaced)
   int count = 0;
-  int farthest = 0;
   double sum = 0.0;
-  const auto find_farthest = [&] {
-    farthest = 0;
-    for (int m = 1; m < count; ++m)
-      if (w[m] > w[farthest]) farthest = m;
-  };
   for (int k = nb_start_[near]; k < nb_start_[near + 1]; ++k) {
     const int i = nb_idx_[k];
     const double d2 = (cp_[i] - p).squaredNorm();
     if (count < max) {
       idx[count] = i;
       w[count] = d2;
-      if (++count == max) find_farthest();
-    } else if (d2 < w[farthest]) {
-      idx[farthest] = i;
-      w[farthest] = d2;
-      find_farthest();
+      ++count;
+    } else {
+      int farthest = 0;
+      for (int m = 1; m < count; ++m)
+        if (w[m] > w[farthest]) farthest = m;
+      if (d2 < w[farthest]) {
+        idx[farthest] = i;
+        w[farthest] = d2;
+      }
     }
   }
   for (int m = 0; m < count; ++m) w[m] = std::exp(-w[m] / h2);
