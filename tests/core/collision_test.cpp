@@ -366,5 +366,44 @@ TEST(Collision, PairCacheGivesTheContactsOfAFreshTraversal) {
   EXPECT_LT(worst_normal, 1e-3);
 }
 
+// The traversal moves the smaller tree into the larger one's frame, so which body
+// comes first decides which leaf normals are turned (core/collision.cpp). Either
+// order gives the same contacts: each control point against the other surface, with
+// the same gap and the opposite normal.
+TEST(Collision, EitherBodyOrderGivesTheSameContacts) {
+  auto fb = Make(test::CubeShape(0.06), 9000, 1200, 3);
+  auto ft = Make(test::FingertipEllipsoid(), 2400, 320, 4);
+  ASSERT_LT(ft->geom.tree.nodes().size(), fb->geom.tree.nodes().size());
+  CollisionParams params;
+  CollisionScratch scratch;
+  scratch.Reserve(1200, 200000);
+  int compared = 0, culled = 0;
+  for (int k = 0; k < 5; ++k) {
+    const Pose pt{Eigen::AngleAxisd(0.2 * k, Vec3(0.3, 1, 0.2).normalized()).toRotationMatrix(),
+                  Vec3(-0.01 + 0.005 * k, 0.002, 0.03 + 0.011 - 1e-3)};
+    ContactBuffer tip_first, box_first;
+    tip_first.Reserve(20000);
+    box_first.Reserve(20000);
+    CollisionStats st_tip, st_box;
+    CollidePair(0, ft->shape(), pt, 1, fb->shape(), Pose{}, params, &scratch, &tip_first, &st_tip);
+    CollidePair(0, fb->shape(), Pose{}, 1, ft->shape(), pt, params, &scratch, &box_first, &st_box);
+    ASSERT_EQ(tip_first.items.size(), box_first.items.size()) << "pose " << k;
+    // the leaves culled by their height above the other body's slabs (the turned normals)
+    EXPECT_EQ(st_tip.culled, st_box.culled) << "pose " << k;
+    culled += st_tip.culled;
+    std::map<std::pair<int, int>, const Contact*> other;  // (body of the control point, leaf)
+    for (const Contact& c : box_first.items) other[{c.body[0] == 0 ? 1 : 0, c.leaf}] = &c;
+    for (const Contact& c : tip_first.items) {
+      const auto it = other.find({c.body[0], c.leaf});
+      ASSERT_NE(it, other.end()) << "pose " << k << " leaf " << c.leaf;
+      EXPECT_NEAR(it->second->gap, c.gap, 1e-12) << "pose " << k;
+      EXPECT_LT((it->second->normal - c.normal).norm(), 1e-9) << "pose " << k;
+      ++compared;
+    }
+  }
+  EXPECT_GT(compared, 5 * 10);
+  EXPECT_GT(culled, 0);
+}
+
 }  // namespace
 }  // namespace gs
