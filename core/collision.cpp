@@ -51,14 +51,16 @@ void MoveNodes(const SphereTree& t, const Pose& to, std::vector<TraversalNode>* 
   }
 }
 
-// collects the overlapping leaf pairs of two trees whose nodes are in one frame;
-// a pair is tested when it is pushed, so only overlapping pairs go on the stack
-void TraverseTrees(const TraversalNode* na, const int* end_a, int root_a, const TraversalNode* nb, const int* end_b,
-                   int root_b, double threshold, CollisionScratch* s, CollisionStats* stats) {
-  s->stack.clear();
-  s->pairs.clear();
+// Descends two trees whose nodes are in one frame from the node pairs on `stack`
+// (each found overlapping within `threshold` when pushed): every overlapping leaf
+// pair goes to emit(ia, ib, d2, d), every other overlapping pair on the stack.
+// Stops when the stack is empty or after at least `max_tests` sphere tests (the
+// stack then holds the rest); returns the tests done.
+template <class Emit>
+int Descend(const TraversalNode* na, const int* end_a, const TraversalNode* nb, const int* end_b, double threshold,
+            std::vector<uint64_t>* stack, int max_tests, Emit&& emit) {
   int tests = 0;
-  // tests (ia, ib): overlapping leaf pairs are collected, other overlapping pairs stacked
+  // tests (ia, ib): overlapping leaf pairs are emitted, other overlapping pairs stacked
   auto visit = [&](int ia, int ib) {
     const TraversalNode& a = na[ia];
     const TraversalNode& b = nb[ib];
@@ -68,14 +70,13 @@ void TraverseTrees(const TraversalNode* na, const int* end_a, int root_a, const 
     ++tests;
     if (d2 > reach * reach) return;
     if (a.IsLeaf() && b.IsLeaf())
-      s->pairs.push_back({a.leaf(), b.leaf(), d2, d});
+      emit(ia, ib, d2, d);
     else
-      s->stack.push_back(PackPair(ia, ib));
+      stack->push_back(PackPair(ia, ib));
   };
-  visit(root_a, root_b);
-  while (!s->stack.empty()) {
-    const uint64_t top = s->stack.back();
-    s->stack.pop_back();
+  while (!stack->empty() && tests < max_tests) {
+    const uint64_t top = stack->back();
+    stack->pop_back();
     const int ia = PairFirst(top), ib = PairSecond(top);
     const TraversalNode& a = na[ia];
     const TraversalNode& b = nb[ib];
@@ -99,8 +100,253 @@ void TraverseTrees(const TraversalNode* na, const int* end_a, int root_a, const 
       }
     }
   }
+  return tests;
+}
+
+// starts a descent at the root pair: tested, then emitted (two single-leaf trees)
+// or stacked when it overlaps; returns the test done
+template <class Emit>
+int SeedDescent(const TraversalNode* na, int root_a, const TraversalNode* nb, int root_b, double threshold,
+                std::vector<uint64_t>* stack, Emit&& emit) {
+  stack->clear();
+  const double reach = na[root_a].radius + nb[root_b].radius + threshold;
+  const Vec3 d = na[root_a].center - nb[root_b].center;
+  const double d2 = d.squaredNorm();
+  if (d2 > reach * reach) return 1;
+  if (na[root_a].IsLeaf() && nb[root_b].IsLeaf())
+    emit(root_a, root_b, d2, d);
+  else
+    stack->push_back(PackPair(root_a, root_b));
+  return 1;
+}
+
+// collects the overlapping leaf pairs of two trees whose nodes are in one frame
+void TraverseTrees(const TraversalNode* na, const int* end_a, int root_a, const TraversalNode* nb, const int* end_b,
+                   int root_b, double threshold, CollisionScratch* s, CollisionStats* stats) {
+  s->pairs.clear();
+  auto emit = [&](int ia, int ib, double d2, const Vec3& d) { s->pairs.push_back({na[ia].leaf(), nb[ib].leaf(), d2, d}); };
+  int tests = SeedDescent(na, root_a, nb, root_b, threshold, &s->stack, emit);
+  tests += Descend(na, end_a, nb, end_b, threshold, &s->stack, std::numeric_limits<int>::max(), emit);
   stats->node_pairs += tests;
   stats->leaf_pairs += static_cast<int>(s->pairs.size());
+}
+
+// how far the moved tree's nodes may have gone since a list was built at `then`
+// (the trees' growth_drift() da, db), plus how much any radius may have grown since
+double UsedMargin(const Pose& moved, const Pose& then, double da, double db, double extent, const SphereTree& ta,
+                  const SphereTree& tb) {
+  return (moved.R - then.R).norm() * extent + (moved.t - then.t).norm() + (ta.growth_drift() - da) +
+         (tb.growth_drift() - db);
+}
+
+// the emitter of a list's traversal: node pairs, until the list would outgrow
+// `limit` (it is then marked invalid and not kept)
+struct IntoList {
+  PairList* list;
+  size_t limit;
+  void operator()(int ia, int ib, double, const Vec3&) const {
+    if (list->pairs.size() < limit)
+      list->pairs.emplace_back(ia, ib);
+    else
+      list->valid = false;
+  }
+};
+
+// a list begins: empty, at the current pose and growth, with its margin
+void BeginList(PairList* list, const Pose& moved, double margin, const SphereTree& ta, const SphereTree& tb) {
+  list->pairs.clear();
+  list->valid = true;
+  list->moved = moved;
+  list->margin = margin;
+  list->drift_a = ta.growth_drift();
+  list->drift_b = tb.growth_drift();
+}
+
+// the next wide list is done: it becomes the wide list (a list that outgrew its
+// capacity ends the pair's wide lists: every refill then descends the trees)
+void PromoteNext(PairCache* c) {
+  std::swap(c->wide, c->next);
+  c->building = false;
+  c->next_stack.clear();
+  c->wide_age = c->next_age;
+  c->wide_tests = c->next_tests;
+  c->wide_used = -1.0;  // not yet seen
+  if (!c->wide.valid) c->wide_limit = 0;
+}
+
+// The overlapping leaf pairs of two trees (into s->pairs, as TraverseTrees gives
+// them) from their PairCache: served from its list while the motion stays within
+// the list's margin, else the list refilled from the wide list, or rebuilt by a
+// traversal; then a slice of the next wide list.
+void CachedLeafPairs(const TraversalNode* na, const TraversalNode* nb, const SphereTree& ta, const SphereTree& tb,
+                     bool in_b, const Pose& moved_pose, const CollisionParams& params, PairCache* cache,
+                     CollisionScratch* s, CollisionStats* local) {
+  const double thr = params.contact_threshold;
+  const double extent = (in_b ? ta : tb).center_extent();
+  const double radii = ta.mean_leaf_radius() + tb.mean_leaf_radius();
+  const double margin = params.pair_cache_margin * radii;
+  const double wide_margin = params.pair_cache_wide_margin * radii;
+  const int* end_a = ta.span_end();
+  const int* end_b = tb.span_end();
+  if (cache->in_b != in_b) cache->Invalidate();
+  cache->in_b = in_b;
+  if (cache->pairs.capacity() < cache->limit) {  // once per pair
+    cache->pairs.reserve(cache->limit);
+    cache->wide.pairs.reserve(cache->wide_limit);
+    cache->next.pairs.reserve(cache->wide_limit);
+    cache->next_stack.reserve(1024);
+    cache->next_nodes.reserve((in_b ? ta : tb).nodes().size());
+  }
+  auto used = [&](const Pose& then, double da, double db) {
+    return UsedMargin(moved_pose, then, da, db, extent, ta, tb);
+  };
+  auto used_list = [&](const PairList& l) { return used(l.moved, l.drift_a, l.drift_b); };
+  const bool wide_on = cache->wide_limit > 0 && wide_margin > margin;
+  // the next wide list's nodes: the moved tree's as they were when it began
+  const TraversalNode* next_a = in_b ? cache->next_nodes.data() : na;
+  const TraversalNode* next_b = in_b ? nb : cache->next_nodes.data();
+
+  if (cache->valid && used(cache->moved, cache->drift_a, cache->drift_b) <= cache->margin) {
+    // served: every pair a traversal would find now is in the list
+    s->pairs.clear();
+    for (const auto& [ia, ib] : cache->pairs) {
+      const TraversalNode& x = na[ia];
+      const TraversalNode& y = nb[ib];
+      const double reach = x.radius + y.radius + thr;
+      const Vec3 d = x.center - y.center;
+      const double d2 = d.squaredNorm();
+      if (d2 <= reach * reach) s->pairs.push_back({x.leaf(), y.leaf(), d2, d});
+    }
+    local->node_pairs += static_cast<int>(cache->pairs.size());
+    local->leaf_pairs += static_cast<int>(s->pairs.size());
+    ++local->cache_hits;
+  } else {
+    bool from_wide = false, traversed = false;
+    if (wide_on) {
+      // the wide list covers the pairs within the served margin while its own
+      // margin holds the motion since plus the served margin
+      from_wide = cache->wide.valid && used_list(cache->wide) + margin <= cache->wide.margin;
+      if (!from_wide && cache->building && used_list(cache->next) + margin <= cache->next.margin) {
+        // the slices did not finish in time: the rest of the next wide list now
+        const int t = Descend(next_a, end_a, next_b, end_b, thr + cache->next.margin, &cache->next_stack,
+                              std::numeric_limits<int>::max(), IntoList{&cache->next, cache->wide_limit});
+        local->node_pairs += t;
+        cache->next_tests += t;
+        PromoteNext(cache);
+        from_wide = cache->wide.valid;
+        traversed = true;
+      }
+      if (!from_wide && cache->wide_limit > 0) {
+        // a whole traversal with the wide margin, from the current pose
+        cache->building = false;
+        PairList& w = cache->wide;
+        BeginList(&w, moved_pose, wide_margin, ta, tb);
+        const IntoList emit{&w, cache->wide_limit};
+        int t = SeedDescent(na, ta.root(), nb, tb.root(), thr + wide_margin, &s->stack, emit);
+        t += Descend(na, end_a, nb, end_b, thr + wide_margin, &s->stack, std::numeric_limits<int>::max(), emit);
+        local->node_pairs += t;
+        cache->wide_tests = t;
+        cache->wide_age = 0;
+        cache->wide_used = 0.0;
+        if (!w.valid) cache->wide_limit = 0;
+        from_wide = w.valid;
+        traversed = true;
+      }
+    }
+    if (from_wide) {
+      // refill: the wide list's pairs within the served margin now, and of those
+      // the pairs within reach
+      s->pairs.clear();
+      cache->pairs.clear();
+      bool fits = true;
+      for (const auto& [ia, ib] : cache->wide.pairs) {
+        const TraversalNode& x = na[ia];
+        const TraversalNode& y = nb[ib];
+        const double reach = x.radius + y.radius + thr;
+        const double wider = reach + margin;
+        const Vec3 d = x.center - y.center;
+        const double d2 = d.squaredNorm();
+        if (d2 > wider * wider) continue;
+        if (cache->pairs.size() < cache->limit)
+          cache->pairs.emplace_back(ia, ib);
+        else
+          fits = false;
+        if (d2 <= reach * reach) s->pairs.push_back({x.leaf(), y.leaf(), d2, d});
+      }
+      local->node_pairs += static_cast<int>(cache->wide.pairs.size());
+      cache->valid = fits;
+      cache->moved = moved_pose;
+      cache->margin = margin;
+      cache->drift_a = ta.growth_drift();
+      cache->drift_b = tb.growth_drift();
+      local->leaf_pairs += static_cast<int>(s->pairs.size());
+      ++(traversed ? local->cache_builds : local->cache_refills);
+    } else {
+      // traverse with the served margin, keep the list, then keep the pairs within reach
+      CollisionStats traversal;
+      TraverseTrees(na, end_a, ta.root(), nb, end_b, tb.root(), thr + margin, s, &traversal);
+      local->node_pairs += traversal.node_pairs;
+      cache->valid = s->pairs.size() <= cache->limit;
+      if (cache->valid) {
+        cache->pairs.clear();
+        for (const CollisionScratch::LeafPair& p : s->pairs)
+          cache->pairs.emplace_back(ta.leaf_node(p.leaf_a), tb.leaf_node(p.leaf_b));
+        cache->moved = moved_pose;
+        cache->margin = margin;
+        cache->drift_a = ta.growth_drift();
+        cache->drift_b = tb.growth_drift();
+      }
+      size_t kept = 0;
+      for (const CollisionScratch::LeafPair& p : s->pairs) {
+        const double reach = na[ta.leaf_node(p.leaf_a)].radius + nb[tb.leaf_node(p.leaf_b)].radius + thr;
+        if (p.dist2 <= reach * reach) s->pairs[kept++] = p;
+      }
+      s->pairs.resize(kept);
+      local->leaf_pairs += static_cast<int>(kept);
+      ++local->cache_builds;
+    }
+  }
+
+  // ahead of need: once half the wide list's spare margin is used, the next wide
+  // list begins from the current pose; then every step that served its list
+  // traverses a slice of it, sized to end it when half the margin left is used at
+  // the pace of the motion so far (counted in tests and margins: no clock)
+  if (wide_on && cache->wide.valid && cache->wide_limit > 0) {
+    ++cache->wide_age;
+    if (cache->building) ++cache->next_age;
+    const double spare = cache->wide.margin - margin;
+    const double used_wide = used_list(cache->wide);
+    if (!cache->building && used_wide > 0.5 * spare) {
+      BeginList(&cache->next, moved_pose, wide_margin, ta, tb);
+      cache->next_nodes.assign(s->moved.begin(), s->moved.end());  // capacity reserved: no allocation
+      const int t = SeedDescent(next_a, ta.root(), next_b, tb.root(), thr + wide_margin, &cache->next_stack,
+                                IntoList{&cache->next, cache->wide_limit});
+      local->node_pairs += t;
+      local->slice_tests += t;
+      cache->next_tests = t;
+      cache->next_age = 0;
+      cache->building = true;
+    }
+    // margin used per step: on average since the wide list's pose, or in the last
+    // step when the motion speeds up
+    const double pace =
+        std::max(used_wide / cache->wide_age, cache->wide_used >= 0.0 ? used_wide - cache->wide_used : 0.0);
+    cache->wide_used = used_wide;
+    if (cache->building && local->cache_hits > 0) {
+      const double steps_left = pace > 0.0 ? 0.5 * (spare - used_wide) / pace : 1e9;
+      // the tests left: what the last wide list took, less what is done, and at
+      // least a quarter of it more (a contact that spreads takes more than the last)
+      const double left = std::max(cache->wide_tests - cache->next_tests, cache->wide_tests / 4);
+      const int slice = static_cast<int>(std::min(1e9, std::max<double>(params.pair_cache_slice_tests,
+                                                                       std::ceil(left / std::max(1.0, steps_left)))));
+      const int t = Descend(next_a, end_a, next_b, end_b, thr + cache->next.margin, &cache->next_stack, slice,
+                            IntoList{&cache->next, cache->wide_limit});
+      local->node_pairs += t;
+      local->slice_tests += t;
+      cache->next_tests += t;
+      if (cache->next_stack.empty()) PromoteNext(cache);
+    }
+  }
 }
 
 // the leaf whose centre is nearest to p, by greedy descent (exact enough for a re-projection)
@@ -399,6 +645,8 @@ void CollisionStats::Add(const CollisionStats& o) {
   dropped += o.dropped;
   cache_hits += o.cache_hits;
   cache_builds += o.cache_builds;
+  cache_refills += o.cache_refills;
+  slice_tests += o.slice_tests;
   traverse_s += o.traverse_s;
   project_s += o.project_s;
 }
@@ -468,61 +716,10 @@ void CollidePair(int id_a, const CollisionShape& a, const Pose& pose_a, int id_b
   const SphereTree& ta = *a.tree;
   const SphereTree& tb = *b.tree;
   const double thr = params.contact_threshold;
-  if (cache && cache->limit > 0 && params.pair_cache_margin > 0.0) {
-    bool served = false;
-    if (cache->valid && cache->in_b == in_b) {
-      // how far any node centre of the moved tree has gone since the list was built,
-      // plus how much any radius may have grown: within the margin, the list holds
-      // every pair a traversal would find now
-      const double motion = (moved_pose.R - cache->moved.R).norm() * (in_b ? ta : tb).center_extent() +
-                            (moved_pose.t - cache->moved.t).norm();
-      const double grown = (ta.growth_drift() - cache->drift_a) + (tb.growth_drift() - cache->drift_b);
-      if (motion + grown <= cache->margin) {
-        s->pairs.clear();
-        for (const auto& [ia, ib] : cache->pairs) {
-          const TraversalNode& x = na[ia];
-          const TraversalNode& y = nb[ib];
-          const double reach = x.radius + y.radius + thr;
-          const Vec3 d = x.center - y.center;
-          const double d2 = d.squaredNorm();
-          if (d2 <= reach * reach) s->pairs.push_back({x.leaf(), y.leaf(), d2, d});
-        }
-        local.node_pairs += static_cast<int>(cache->pairs.size());
-        local.leaf_pairs += static_cast<int>(s->pairs.size());
-        ++local.cache_hits;
-        served = true;
-      }
-    }
-    if (!served) {
-      // traverse with the margin, keep the list, then keep the pairs within reach
-      const double margin = params.pair_cache_margin * (ta.mean_leaf_radius() + tb.mean_leaf_radius());
-      CollisionStats traversal;
-      TraverseTrees(na, ta.span_end(), ta.root(), nb, tb.span_end(), tb.root(), thr + margin, s, &traversal);
-      local.node_pairs += traversal.node_pairs;
-      if (cache->pairs.capacity() < cache->limit) cache->pairs.reserve(cache->limit);  // once per pair
-      cache->valid = s->pairs.size() <= cache->limit;
-      if (cache->valid) {
-        cache->pairs.clear();
-        for (const CollisionScratch::LeafPair& p : s->pairs)
-          cache->pairs.emplace_back(ta.leaf_node(p.leaf_a), tb.leaf_node(p.leaf_b));
-        cache->moved = moved_pose;
-        cache->in_b = in_b;
-        cache->margin = margin;
-        cache->drift_a = ta.growth_drift();
-        cache->drift_b = tb.growth_drift();
-      }
-      size_t kept = 0;
-      for (const CollisionScratch::LeafPair& p : s->pairs) {
-        const double reach = na[ta.leaf_node(p.leaf_a)].radius + nb[tb.leaf_node(p.leaf_b)].radius + thr;
-        if (p.dist2 <= reach * reach) s->pairs[kept++] = p;
-      }
-      s->pairs.resize(kept);
-      local.leaf_pairs += static_cast<int>(kept);
-      ++local.cache_builds;
-    }
-  } else {
+  if (cache && cache->limit > 0 && params.pair_cache_margin > 0.0)
+    CachedLeafPairs(na, nb, ta, tb, in_b, moved_pose, params, cache, s, &local);
+  else
     TraverseTrees(na, ta.span_end(), ta.root(), nb, tb.span_end(), tb.root(), thr, s, &local);
-  }
 
   // closest overlapping leaf on the other body, for every leaf of each body, and
   // how high each leaf centre stands above the other body's overlapping leaf slabs

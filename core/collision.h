@@ -42,6 +42,17 @@ struct CollisionParams {
   /// The cache serves the following steps while the trees' relative motion plus
   /// their radius growth stays within it. 0: every step traverses the trees.
   double pair_cache_margin = 0.25;
+  /// The cache's wide list: the leaf pairs within this margin (the same fraction,
+  /// larger than pair_cache_margin) beyond the threshold. When the served list's
+  /// margin is used up, the list is refilled by testing the wide list's pairs
+  /// instead of descending the trees, and the next wide list is traversed ahead of
+  /// need, a slice of pair_cache_slice_tests sphere tests per step: no step pays a
+  /// whole traversal while the motion stays within it. The slices are sized to end
+  /// the next list when half the wide list's remaining margin is used, at the pace
+  /// of the motion so far (at least pair_cache_slice_tests sphere tests a step).
+  /// 0: no wide list (every refill descends the trees).
+  double pair_cache_wide_margin = 1.0;
+  int pair_cache_slice_tests = 512;
 };
 
 /// One contact: control point `leaf` of body[0] against the surface of body[1].
@@ -70,7 +81,9 @@ struct CollisionStats {
   int contacts = 0;       ///< contacts added
   int dropped = 0;        ///< contacts lost because the buffer was full
   int cache_hits = 0;     ///< body pairs whose leaf pairs came from their PairCache
-  int cache_builds = 0;   ///< body pairs whose PairCache was (re)built by a traversal
+  int cache_builds = 0;   ///< body pairs whose PairCache was (re)built by a whole traversal in the step
+  int cache_refills = 0;  ///< body pairs whose served list was refilled from the wide list (no descent)
+  int slice_tests = 0;    ///< of node_pairs, the tests spent on slices of the next wide lists
   double traverse_s = 0;  ///< time in traversal (s)
   double project_s = 0;   ///< time in projections (s)
   void Add(const CollisionStats& o);
@@ -105,17 +118,48 @@ struct CollisionScratch {
 /// against the current centres and radii instead of descending the trees. A pair
 /// the list keeps may pass that test where a fresh traversal would have stopped at
 /// an ancestor (node spheres bound the points, not their children's spheres): it
-/// only adds a candidate. The list's capacity (`limit` pairs) is taken the first
-/// time the pair is traversed, once; a list that would outgrow it is not kept.
-struct PairCache {
+/// only adds a candidate.
+struct PairList {
   std::vector<std::pair<int, int>> pairs;  ///< the leaf pairs as (node of a, node of b): no leaf-to-node lookup when served
-  size_t limit = 0;      ///< most pairs kept (0: no cache for this pair)
   Pose moved;            ///< the moved tree's pose in the other tree's frame when built
-  bool in_b = false;     ///< a's tree was the moved one
-  bool valid = false;
   double margin = 0.0;   ///< m
   double drift_a = 0.0, drift_b = 0.0;  ///< the trees' growth_drift() when built
-  void Invalidate() { valid = false; }
+  bool valid = false;
+};
+
+/// The leaf-pair cache of two trees: a served list (CollisionParams::pair_cache_margin)
+/// tested every step, and a wide list (pair_cache_wide_margin) it is refilled from
+/// while the wide list still covers the served list's margin. The next wide list is
+/// traversed in slices ahead of need, from the pose at which it began (its moved
+/// nodes are kept; the other tree's radii are read as they grow, which only widens
+/// the list), and replaces the wide list when done. Every slice is counted in
+/// sphere tests, never in time, so a step's contacts do not depend on the machine.
+/// The lists' capacities (`limit` and `wide_limit` pairs) are taken the first time
+/// the pair is traversed, once; a list that would outgrow its capacity is not kept.
+struct PairCache {
+  std::vector<std::pair<int, int>> pairs;  ///< the served list (see PairList)
+  size_t limit = 0;      ///< most pairs served (0: no cache for this pair)
+  Pose moved;
+  bool in_b = false;     ///< a's tree was the moved one (for every list)
+  bool valid = false;
+  double margin = 0.0;
+  double drift_a = 0.0, drift_b = 0.0;
+  size_t wide_limit = 0;  ///< most pairs in a wide list (0: none)
+  PairList wide;          ///< what the served list is refilled from
+  PairList next;          ///< the next wide list, while it is traversed
+  bool building = false;  ///< `next` is being traversed
+  int wide_age = 0;       ///< steps since the wide list's pose was taken
+  int next_age = 0;       ///< steps since the next list's pose was taken
+  int wide_tests = 0;     ///< sphere tests of the last whole wide traversal (what the next will take, roughly)
+  int next_tests = 0;     ///< sphere tests spent on `next` so far
+  double wide_used = 0.0; ///< the wide list's margin used as of the last step (m; < 0: not yet seen)
+  std::vector<uint64_t> next_stack;        ///< its traversal's node pairs still to descend
+  std::vector<TraversalNode> next_nodes;   ///< the moved tree's nodes when it began
+  void Invalidate() {
+    valid = false;
+    wide.valid = false;
+    building = false;
+  }
 };
 
 /// A fixed-capacity contact list: adding beyond capacity drops and counts.

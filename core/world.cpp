@@ -167,7 +167,9 @@ void World::Finalize() {
       const Body& b = bodies[j];
       if (a.geometry.is_plane || b.geometry.is_plane) continue;
       const size_t all = static_cast<size_t>(a.geometry.tree.num_leaves()) * b.geometry.tree.num_leaves();
-      pair_caches[static_cast<size_t>(i) * n + j].limit = std::min(all, static_cast<size_t>(4) * params.max_contacts);
+      PairCache& c = pair_caches[static_cast<size_t>(i) * n + j];
+      c.limit = std::min(all, static_cast<size_t>(4) * params.max_contacts);
+      c.wide_limit = std::min(all, static_cast<size_t>(8) * params.max_contacts);
     }
   warm_prev.reserve(params.max_contacts);
   warm_next.reserve(params.max_contacts);

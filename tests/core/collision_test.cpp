@@ -298,17 +298,24 @@ std::map<uint64_t, std::pair<double, Vec3>> ByKey(const ContactBuffer& b) {
   return m;
 }
 
+struct CacheRun {
+  int hits = 0, builds = 0, refills = 0, slice_tests = 0, contacts = 0;
+  std::vector<int> built_at;
+  double worst_gap = 0.0, worst_normal = 0.0;
+};
+
 // A fingertip pressed into a box slides, turns and deforms step by step, with two
-// jumps: served from its leaf-pair cache, every step gives the contacts a fresh
-// traversal gives, and the cache is rebuilt exactly when the motion or the growth
-// of the radii outruns its margin.
-TEST(Collision, PairCacheGivesTheContactsOfAFreshTraversal) {
+// jumps and, from step 320, a slide that speeds up tenfold: every step, the contacts
+// from the leaf-pair cache (`wide_limit` 0: the served list alone) are compared with
+// a fresh traversal's.
+CacheRun RunPairCache(size_t wide_limit) {
   const ShapeDesc box = test::CubeShape(0.06);
   const ShapeDesc tip = test::FingertipEllipsoid();
   auto fb = Make(box, 9000, 1200, 3);
   auto ft = Make(tip, 2400, 320, 4);
   CollisionParams params;
-  ASSERT_GT(params.pair_cache_margin, 0.0);
+  EXPECT_GT(params.pair_cache_margin, 0.0);
+  EXPECT_GT(params.pair_cache_wide_margin, params.pair_cache_margin);
   CollisionScratch scratch;
   scratch.Reserve(1200, 200000);
   ContactBuffer fresh, cached;
@@ -316,19 +323,23 @@ TEST(Collision, PairCacheGivesTheContactsOfAFreshTraversal) {
   cached.Reserve(20000);
   PairCache cache;
   cache.limit = 100000;
+  cache.wide_limit = wide_limit;
   const int leaves = ft->geom.tree.num_leaves();
   std::vector<Vec3> u(leaves, Vec3::Zero());
   std::vector<double> spread(leaves, 0.0);
   std::vector<uint8_t> changed(leaves, 1);
-  int hits = 0, builds = 0, contacts = 0;
-  double worst_gap = 0.0, worst_normal = 0.0;
+  CacheRun run;
+  double x = -0.01;
   for (int k = 0; k < 400; ++k) {
-    // slide 20 um and turn 1 mrad per step, 1 mm into the top face; jump at 150 and 300
-    const double x = -0.01 + 2e-5 * k + (k >= 150 ? 0.004 : 0.0) + (k >= 300 ? -0.006 : 0.0);
+    // slide 20 um and turn 1 mrad per step, 1 mm into the top face; jump at 150 and
+    // 300; from 320 the slide speeds up by 2.5 um per step every step
+    x += 2e-5 + (k == 150 ? 0.004 : 0.0) + (k == 300 ? -0.006 : 0.0) + (k > 320 ? 2.5e-6 * (k - 320) : 0.0);
     const Pose pt{Eigen::AngleAxisd(1e-3 * k, Vec3::UnitZ()).toRotationMatrix(), Vec3(x, 0.002, 0.03 + 0.011 - 1e-3)};
     // the tip's pressed leaves sink a little more every step; at 250 by more than
-    // the margin at once
-    const double sink = k >= 250 ? 1.2 * cache.margin : 0.0;
+    // the served list's margin at once
+    const double sink = k >= 250 ? 1.2 * params.pair_cache_margin * (ft->geom.tree.mean_leaf_radius() +
+                                                                     fb->geom.tree.mean_leaf_radius())
+                                 : 0.0;
     for (int l = 0; l < leaves; ++l) {
       const bool pressed = ft->geom.tree.control_point(l).z() < -0.009;
       u[l] = pressed ? Vec3(0, 0, 2e-7 * k + sink) : Vec3::Zero();
@@ -338,32 +349,70 @@ TEST(Collision, PairCacheGivesTheContactsOfAFreshTraversal) {
     fresh.Clear();
     cached.Clear();
     CollidePair(0, ft->shape(), pt, 1, fb->shape(), Pose{}, params, &scratch, &fresh, nullptr);
+    std::set<std::pair<int, int>> fresh_pairs;  // the leaf pairs the step worked from (kept in the scratch)
+    for (const CollisionScratch::LeafPair& p : scratch.pairs) fresh_pairs.emplace(p.leaf_a, p.leaf_b);
     CollisionStats st;
     CollidePair(0, ft->shape(), pt, 1, fb->shape(), Pose{}, params, &scratch, &cached, &st, &cache);
-    hits += st.cache_hits;
-    builds += st.cache_builds;
-    ASSERT_EQ(st.cache_hits + st.cache_builds, 1) << k;
-    // the jumps and the sudden growth rebuild the list at once
+    // every leaf pair a fresh traversal finds is among the cache's
+    std::set<std::pair<int, int>> cached_pairs;
+    for (const CollisionScratch::LeafPair& p : scratch.pairs) cached_pairs.emplace(p.leaf_a, p.leaf_b);
+    int missing = 0;
+    for (const auto& p : fresh_pairs) missing += cached_pairs.count(p) ? 0 : 1;
+    EXPECT_EQ(missing, 0) << "step " << k << ": leaf pairs of a fresh traversal missing from the cache's";
+    run.hits += st.cache_hits;
+    run.builds += st.cache_builds;
+    run.refills += st.cache_refills;
+    run.slice_tests += st.slice_tests;
+    if (st.cache_builds) run.built_at.push_back(k);
+    EXPECT_EQ(st.cache_hits + st.cache_builds + st.cache_refills, 1) << k;
+    // the jumps and the sudden growth renew the served list at once
     if (k == 0 || k == 150 || k == 250 || k == 300) {
-      EXPECT_EQ(st.cache_builds, 1) << k;
+      EXPECT_EQ(st.cache_hits, 0) << k;
     }
     const auto a = ByKey(fresh), b = ByKey(cached);
-    ASSERT_EQ(a.size(), b.size()) << "step " << k;
+    EXPECT_EQ(a.size(), b.size()) << "step " << k;
     for (const auto& [key, v] : a) {
       const auto it = b.find(key);
-      ASSERT_NE(it, b.end()) << "step " << k << " key " << key;
-      worst_gap = std::max(worst_gap, std::abs(it->second.first - v.first));
-      worst_normal = std::max(worst_normal, (it->second.second - v.second).norm());
+      if (it == b.end()) {
+        ADD_FAILURE() << "step " << k << " key " << key;
+        continue;
+      }
+      run.worst_gap = std::max(run.worst_gap, std::abs(it->second.first - v.first));
+      run.worst_normal = std::max(run.worst_normal, (it->second.second - v.second).norm());
     }
-    contacts += static_cast<int>(a.size());
+    run.contacts += static_cast<int>(a.size());
   }
-  std::printf("pair cache: %d hits, %d builds, %d contacts, worst gap difference %.3g m, normal %.3g\n", hits,
-              builds, contacts, worst_gap, worst_normal);
-  EXPECT_GT(contacts, 400 * 10);
-  EXPECT_GT(hits, 300);  // most steps are served from the list
-  EXPECT_GE(builds, 4);
-  EXPECT_LT(worst_gap, 1e-3 * fb->geom.mls.bandwidth);
-  EXPECT_LT(worst_normal, 1e-3);
+  std::printf("pair cache (wide list %s): %d served, %d refilled from the wide list, %d rebuilt by a traversal (",
+              wide_limit ? "on" : "off", run.hits, run.refills, run.builds);
+  for (int k : run.built_at) std::printf(" %d", k);
+  std::printf(" ), %d tests in slices, %d contacts, worst gap difference %.3g m, normal %.3g\n", run.slice_tests,
+              run.contacts, run.worst_gap, run.worst_normal);
+  EXPECT_GT(run.contacts, 400 * 10);
+  EXPECT_GT(run.hits, 300);  // most steps are served from the list
+  EXPECT_LT(run.worst_gap, 1e-3 * fb->geom.mls.bandwidth);
+  EXPECT_LT(run.worst_normal, 1e-3);
+  return run;
+}
+
+// The served list alone: rebuilt by a traversal whenever its margin is used up.
+TEST(Collision, PairCacheGivesTheContactsOfAFreshTraversal) {
+  const CacheRun run = RunPairCache(0);
+  EXPECT_GE(run.builds, 4);
+  EXPECT_EQ(run.refills, 0);
+  EXPECT_EQ(run.slice_tests, 0);
+}
+
+// With the wide list, the served list is refilled from it, and the next wide list
+// is traversed in slices ahead of need: besides the first step and the two jumps,
+// no step descends the trees whole, even while the slide speeds up, and every step
+// still gives a fresh traversal's contacts.
+TEST(Collision, WideListRefillsTheServedListWithoutWholeTraversals) {
+  const CacheRun single = RunPairCache(0);
+  const CacheRun wide = RunPairCache(200000);
+  EXPECT_GE(wide.refills, 4);
+  EXPECT_GT(wide.slice_tests, 0);
+  EXPECT_EQ(wide.built_at, (std::vector<int>{0, 150, 300}));
+  EXPECT_LT(wide.builds, single.builds);
 }
 
 // The traversal moves the smaller tree into the larger one's frame, so which body
