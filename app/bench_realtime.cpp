@@ -90,7 +90,7 @@ struct StepTrace {
         solve = 0, constrained_motion = 0, total = 0;  // ms
   int contacts = 0, iterations = 0, cache_hits = 0, cache_builds = 0, cache_refills = 0, slice_tests = 0;
   StepWork work;
-  bool frame = false, budget_stopped = false;
+  bool frame = false, budget_stopped = false, solve_skipped = false;
 };
 
 struct RunResult {
@@ -117,6 +117,7 @@ struct RunResult {
   int max_contacts = 0;
   int64_t unconverged = 0;      ///< steps whose solve did not reach the scene's tolerance
   int64_t budget_stops = 0;     ///< of those, ended by the step budget
+  int64_t skipped_solves = 0;   ///< of those, steps left no time for a sweep (the warm start stood)
   double residual_max = 0.0;    ///< largest solver error of a step (estimated where the budget stopped it)
   int lifts = 0;                ///< cycles in which the box rose 2 cm above its start
   size_t datagrams = 0;
@@ -178,7 +179,8 @@ bool RunOnce(const std::string& scene, const Session& session, double seconds, b
     sim->Step();
     out->unconverged += w.profile.converged ? 0 : 1;
     out->budget_stops += w.profile.budget_stopped ? 1 : 0;
-    out->residual_max = std::max(out->residual_max, w.profile.residual);
+    out->skipped_solves += w.profile.solve_skipped ? 1 : 0;
+    if (!w.profile.solve_skipped) out->residual_max = std::max(out->residual_max, w.profile.residual);
     const bool frame = recorder.FrameDue(w);
     if (frame) sim->HudText(tracker_text, sizeof tracker_text);
     recorder.AfterStep(w, tracker_text);
@@ -224,6 +226,7 @@ bool RunOnce(const std::string& scene, const Session& session, double seconds, b
       t.work = p.work;
       t.frame = frame;
       t.budget_stopped = p.budget_stopped;
+      t.solve_skipped = p.solve_skipped;
       out->trace.push_back(t);
     }
     step_ms.push_back(1e3 * w.profile.total);
@@ -297,7 +300,7 @@ bool WriteTrace(FILE* f, const std::string& path, const RunResult& with, const R
                   "fill_w_rigid_ms,fill_w_deform_ms,solve_ms,constrained_motion_ms,step_ms,contacts,sweeps,"
                   "cache_hits,cache_builds,frame,budget_stop,node_tests,w_blocks_built,w_deform_sides,"
                   "w_deform_reused,w_deform_direct,weights_reused,deformed_points,bodies_asleep,contacts_reused,"
-                  "cache_refills,slice_tests\n");
+                  "cache_refills,slice_tests,solve_skipped\n");
   for (const RunResult* r : {&with, &without}) {
     for (const StepTrace& t : r->trace) {
       std::fprintf(f, "%d,%lld,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%d,%d,%d,%d,%d,%d,",
@@ -306,9 +309,9 @@ bool WriteTrace(FILE* f, const std::string& path, const RunResult& with, const R
                    t.constrained_motion, t.total, t.contacts, t.iterations, t.cache_hits, t.cache_builds,
                    t.frame ? 1 : 0, t.budget_stopped ? 1 : 0);
       const StepWork& k = t.work;
-      std::fprintf(f, "%d,%d,%d,%d,%d,%d,%d,%d,%d,%d,%d\n", k.node_tests, k.w_blocks_built, k.w_deform_sides,
+      std::fprintf(f, "%d,%d,%d,%d,%d,%d,%d,%d,%d,%d,%d,%d\n", k.node_tests, k.w_blocks_built, k.w_deform_sides,
                    k.w_deform_reused, k.w_deform_direct, k.weights_reused, k.deformed_points, k.bodies_asleep,
-                   k.contacts_reused, t.cache_refills, t.slice_tests);
+                   k.contacts_reused, t.cache_refills, t.slice_tests, t.solve_skipped ? 1 : 0);
     }
   }
   const bool ok = std::ferror(f) == 0;
@@ -327,7 +330,7 @@ void PrintJson(const RunResult& r, double seconds) {
               "\"worst_lateness_ms\":%.4f,\"step_ms_median\":%.4f,\"step_ms_p99\":%.4f,\"step_ms_max\":%.4f,"
               "\"loop_ms_median\":%.4f,\"loop_ms_p99\":%.4f,\"wall_s\":%.3f,\"frames\":%d,\"frames_taken\":%d,"
               "\"frames_dropped\":%d,\"max_contacts\":%d,\"unconverged_steps\":%lld,\"budget_stops\":%lld,"
-              "\"residual_max\":%.3g,\"lifts\":%d,\"datagrams\":%zu,"
+              "\"skipped_solves\":%lld,\"residual_max\":%.3g,\"lifts\":%d,\"datagrams\":%zu,"
               "\"wake_ms_p99\":%.4f,\"wake_ms_max\":%.4f,\"pacing\":\"%s\",\"pacing_refused\":\"%s\","
               "\"load_average_start\":%.2f,\"load_average_end\":%.2f}\n",
               r.render ? "true" : "false", seconds, static_cast<long long>(r.steps), static_cast<long long>(r.missed),
@@ -335,7 +338,7 @@ void PrintJson(const RunResult& r, double seconds) {
               static_cast<long long>(r.missed_woke_late), static_cast<long long>(r.missed_carried), r.worst_late_ms,
               r.step_median_ms, r.step_p99_ms, r.step_max_ms, r.loop_median_ms, r.loop_p99_ms,
               r.wall_s, r.frames_drawn, r.frames_taken, r.frames_dropped, r.max_contacts, static_cast<long long>(r.unconverged),
-              static_cast<long long>(r.budget_stops), r.residual_max, r.lifts, r.datagrams, r.wake_p99_ms,
+              static_cast<long long>(r.budget_stops), static_cast<long long>(r.skipped_solves), r.residual_max, r.lifts, r.datagrams, r.wake_p99_ms,
               r.wake_max_ms, r.pacing.c_str(), r.refused.c_str(), r.load_start, r.load_end);
 }
 
@@ -387,7 +390,7 @@ int RunBenchRealtime(const BenchOptions& opt) {
                 "\"worst_lateness_ms\":%.4f,\"step_ms_median\":%.4f,\"step_ms_p99\":%.4f,\"frames\":%d,"
                 "\"frames_dropped\":%d,\"no_render_missed_deadlines\":%lld,\"no_render_worst_lateness_ms\":%.4f,"
                 "\"no_render_step_ms_median\":%.4f,\"empty_loop_missed_deadlines\":%lld,\"empty_loop_late_runs\":%lld,"
-                "\"unconverged_steps\":%lld,\"budget_stops\":%lld,\"step_budget\":%g,"
+                "\"unconverged_steps\":%lld,\"budget_stops\":%lld,\"skipped_solves\":%lld,\"step_budget\":%g,"
                 "\"pacing\":\"%s\",\"target_met\":%s}\n",
                 seconds, static_cast<long long>(with.steps), static_cast<long long>(with.missed),
                 static_cast<long long>(with.late_runs), static_cast<long long>(with.overlong),
@@ -396,7 +399,8 @@ int RunBenchRealtime(const BenchOptions& opt) {
                 with.worst_late_ms, with.step_median_ms, with.step_p99_ms, with.frames_drawn, with.frames_dropped,
                 static_cast<long long>(without.missed), without.worst_late_ms, without.step_median_ms,
                 static_cast<long long>(empty.missed), static_cast<long long>(empty.late_runs),
-                static_cast<long long>(with.unconverged), static_cast<long long>(with.budget_stops), opt.step_budget,
+                static_cast<long long>(with.unconverged), static_cast<long long>(with.budget_stops),
+                static_cast<long long>(with.skipped_solves), opt.step_budget,
                 with.pacing.c_str(), with.missed == 0 && with.step_median_ms <= 1.0 ? "true" : "false");
     return 0;
   }
@@ -422,10 +426,11 @@ int RunBenchRealtime(const BenchOptions& opt) {
               with.refused.empty() ? "" : "; ", with.refused.c_str(), opt.spin_us);
   for (const RunResult* r : {&with, &without})
     std::printf("  %s: %lld steps unconverged, %lld of them stopped by the step budget (%g of a timestep into "
-                "the slot%s); largest solver error %.3g\n",
+                "the slot%s), %lld of those with no time left for a sweep (the last forces kept); largest solver "
+                "error %.3g (of the steps that swept)\n",
                 r->render ? "with rendering" : "without rendering", static_cast<long long>(r->unconverged),
-                static_cast<long long>(r->budget_stops), opt.step_budget,
-                opt.step_budget > 0 ? "" : ": no budget", r->residual_max);
+                static_cast<long long>(r->budget_stops), opt.step_budget, opt.step_budget > 0 ? "" : ": no budget",
+                static_cast<long long>(r->skipped_solves), r->residual_max);
   std::printf("  load average %.2f -> %.2f (rendering run), %.2f -> %.2f (without)\n", with.load_start, with.load_end,
               without.load_start, without.load_end);
   std::printf("  the box was lifted in %d of %d grasp cycles; target (no missed deadline, step median <= 1 ms): %s\n",

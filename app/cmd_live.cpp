@@ -87,9 +87,11 @@ int Live(const LiveCmd& c) {
               st.wall_s, static_cast<long long>(st.steps), st.sim_rate_hz(), 1.0 / w.params.dt,
               static_cast<long long>(st.overruns), st.steps ? 100.0 * st.overruns / st.steps : 0.0,
               static_cast<long long>(st.skipped_steps), st.step_median_ms, st.step_p99_ms, st.step_max_ms);
-  std::printf("live: solver: %lld steps unconverged, %lld of them stopped by the step budget (%s); largest error %.3g\n",
+  std::printf("live: solver: %lld steps unconverged, %lld of them stopped by the step budget (%s), %lld with no time "
+              "left for a sweep (the last forces kept); largest error %.3g\n",
               static_cast<long long>(st.unconverged_steps), static_cast<long long>(st.budget_stops),
-              o.step_budget > 0 ? (std::to_string(o.step_budget) + " of a timestep").c_str() : "off", st.residual_max);
+              o.step_budget > 0 ? (std::to_string(o.step_budget) + " of a timestep").c_str() : "off",
+              static_cast<long long>(st.skipped_solves), st.residual_max);
   std::printf("live: simulation thread: %s%s%s\n", st.pacing.Describe().c_str(), st.pacing.refused.empty() ? "" : "; ",
               st.pacing.refused.c_str());
   std::printf("live: tracker %.2f Hz received (%llu datagrams, %llu applied, the rest stale), parse errors %s, %llu "
@@ -109,7 +111,7 @@ int Live(const LiveCmd& c) {
               "\"silences\":%d,\"recoveries\":%d,\"rate_changes\":%d,\"garbage_bursts\":%d,\"floods\":%d,"
               "\"rejected_bursts\":%d,\"tracker_state\":\"%s\",\"published\":%llu,\"lcm_ok\":%s,"
               "\"rendering\":%s,\"frames_drawn\":%lld,\"frames_dropped\":%lld,\"pacing\":\"%s\","
-              "\"unconverged_steps\":%lld,\"budget_stops\":%lld,\"residual_max\":%.3g}\n",
+              "\"unconverged_steps\":%lld,\"budget_stops\":%lld,\"skipped_solves\":%lld,\"residual_max\":%.3g}\n",
               st.wall_s, static_cast<long long>(st.steps), st.sim_rate_hz(), 1.0 / w.params.dt,
               static_cast<long long>(st.overruns), static_cast<long long>(st.skipped_steps), st.step_median_ms,
               st.step_max_ms, static_cast<unsigned long long>(st.datagrams), st.tracker_hz,
@@ -118,7 +120,8 @@ int Live(const LiveCmd& c) {
               st.tracker_state.c_str(), static_cast<unsigned long long>(st.published),
               st.lcm_ok ? "true" : "false", rendering ? "true" : "false", static_cast<long long>(st.frames_drawn),
               static_cast<long long>(st.frames_dropped), st.pacing.Describe().c_str(),
-              static_cast<long long>(st.unconverged_steps), static_cast<long long>(st.budget_stops), st.residual_max);
+              static_cast<long long>(st.unconverged_steps), static_cast<long long>(st.budget_stops),
+              static_cast<long long>(st.skipped_solves), st.residual_max);
   return kExitOk;
 }
 

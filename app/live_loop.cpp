@@ -212,6 +212,7 @@ bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::str
   const int64_t budget_ns = static_cast<int64_t>(std::llround(opt.step_budget * dt * 1e9));
   double residual_max = 0.0;  // simulation thread; read after it is joined
   const int64_t unconverged_before = w.unconverged_steps, budget_before = w.budget_stopped_steps;
+  const int64_t skipped_solves_before = w.skipped_solves;
   std::vector<double> step_ms;
   const size_t max_records = 4000000;
   step_ms.reserve(std::min<size_t>(max_records, opt.duration > 0 ? static_cast<size_t>(opt.duration / dt) + 16 : max_records));
@@ -246,7 +247,7 @@ bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::str
       }
       sim.Step();
       const int64_t end = SteadyNanoseconds();
-      residual_max = std::max(residual_max, w.profile.residual);
+      if (!w.profile.solve_skipped) residual_max = std::max(residual_max, w.profile.residual);
       if (fresh && stats->latency_us.size() < stats->latency_us.capacity()) {
         // the step in progress when it arrived, and the one that applied it: the
         // schedule's slot at its arrival, or, when the loop runs behind its
@@ -363,6 +364,7 @@ bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::str
   stats->skipped_steps = skipped.load();
   stats->unconverged_steps = w.unconverged_steps - unconverged_before;
   stats->budget_stops = w.budget_stopped_steps - budget_before;
+  stats->skipped_solves = w.skipped_solves - skipped_solves_before;
   stats->residual_max = residual_max;
   w.params.step_time_budget_s = 0.0;
   stats->datagrams = datagrams.load();

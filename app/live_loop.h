@@ -65,7 +65,8 @@ struct LiveStats {
   PacingGrant pacing;           ///< what the OS granted the simulation thread
   int64_t unconverged_steps = 0;  ///< steps whose solve did not reach the scene's tolerance
   int64_t budget_stops = 0;       ///< of those, steps ended by the step budget
-  double residual_max = 0.0;      ///< largest solver error of a step
+  int64_t skipped_solves = 0;     ///< of those, steps with no time left for a sweep (the last forces kept)
+  double residual_max = 0.0;      ///< largest solver error of a step that swept
   double sim_rate_hz() const { return wall_s > 0 ? static_cast<double>(steps) / wall_s : 0.0; }
 };
 

@@ -10,6 +10,7 @@
 #include <cmath>
 
 #include "core/contact_jacobian.h"
+#include "core/local_solver.h"
 #include "core/world.h"
 
 namespace gs {
@@ -171,6 +172,23 @@ void SolveContacts(World& w) {
     const Vec3& r0 = w.rows[c].r;
     if (r0[0] != 0.0 || r0[1] != 0.0 || r0[2] != 0.0) op.ApplyDelta(c, r0);  // no warm start: nothing to move
   }
+  // no time left for one sweep (and the last step did sweep): the warm start stands
+  if (n > 0 && w.params.step_time_budget_s > 0.0 && w.last_sweep_s_ > 0.0 && !w.last_solve_skipped_) {
+    const double spent = std::chrono::duration<double>(t0 - w.step_started()).count();
+    const double left = w.params.step_time_budget_s - spent - w.last_constrained_motion_s();
+    if (left < w.last_sweep_s_) {
+      for (ContactRow& row : w.rows) row.r = ProjectOntoCone(row.r, row.mu);
+      w.profile.iterations = 0;
+      w.profile.residual = 0.0;
+      w.profile.converged = false;
+      w.profile.budget_stopped = true;
+      w.profile.solve_skipped = true;
+      w.last_solve_skipped_ = true;
+      w.profile.solve = std::chrono::duration<double>(Clock::now() - t0).count();
+      return;
+    }
+  }
+  w.last_solve_skipped_ = false;
   if (n > 0) {
     NsgsParams params = w.params.solver;
     // a step that converged in its sweep may skip the exact error pass (nsgs.h)
@@ -194,6 +212,7 @@ void SolveContacts(World& w) {
   w.profile.work.propagations += op.propagations();
   for (int c = 0; c < n; ++c) w.rows[c].r = w.solve_r[c];
   w.profile.solve = std::chrono::duration<double>(Clock::now() - t0).count();
+  if (n > 0 && w.profile.iterations > 0) w.last_sweep_s_ = w.profile.solve / w.profile.iterations;
 }
 
 namespace {

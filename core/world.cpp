@@ -217,6 +217,7 @@ void World::Step() {
   if (profile.rejected) ++rejected_steps;
   if (!profile.converged) ++unconverged_steps;
   if (profile.budget_stopped) ++budget_stopped_steps;
+  if (profile.solve_skipped) ++skipped_solves;
 }
 
 }  // namespace gs

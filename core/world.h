@@ -247,8 +247,13 @@ struct WorldParams {
   /// Wall-clock budget of a whole step (s; 0: none, the default). The solver then
   /// stops sweeping when the rest of the budget would not hold another sweep (see
   /// NsgsParams::time_budget_s); such a step counts as unconverged and as a budget
-  /// stop. Set by loops paced by the wall clock (live sets it per step from its
-  /// deadline); a step's result then depends on the machine's speed.
+  /// stop. When the stages before the solve have left less than one sweep (what a
+  /// sweep of the last solve took), the step does not sweep at all: its forces are
+  /// the warm start (the last step's forces, in the cones), and it counts as a
+  /// skipped solve (StepProfile::solve_skipped); never two steps in a row, so a
+  /// machine that stays slow still solves every other step. Set by loops paced by
+  /// the wall clock (live sets it per step from its deadline); a step's result then
+  /// depends on the machine's speed.
   double step_time_budget_s = 0.0;
 };
 
@@ -287,6 +292,9 @@ struct StepProfile {
   bool residual_estimated = false;  ///< the solve ran out of its time budget: the residual is the last sweep's estimate
   bool converged = true;
   bool budget_stopped = false;  ///< the solve ended at WorldParams::step_time_budget_s, unconverged
+  /// no time was left for a sweep (WorldParams::step_time_budget_s): the forces are
+  /// the warm start, `iterations` is 0, and `residual` (0) was not measured
+  bool solve_skipped = false;
   bool rejected = false;  ///< the step produced a non-finite value and was undone
   const char* reject_reason = "";  ///< the first stage that saw a non-finite value (static text)
   CollisionStats collision;
@@ -307,6 +315,7 @@ class World {
   int64_t rejected_steps = 0;
   int64_t unconverged_steps = 0;
   int64_t budget_stopped_steps = 0;  ///< of the unconverged steps, those ended by the time budget
+  int64_t skipped_solves = 0;        ///< of those, steps that did not sweep (StepProfile::solve_skipped)
 
   /// Friction coefficient of a body pair (default unless set).
   double Friction(int a, int b) const;
@@ -328,6 +337,8 @@ class World {
   // internals shared by the stages
   std::chrono::steady_clock::time_point step_started_{};
   double last_constrained_motion_s_ = 0.0;
+  double last_sweep_s_ = 0.0;  ///< the last sweeping solve's time per sweep (warm start included)
+  bool last_solve_skipped_ = false;
   std::vector<double> friction_;
   CollisionScratch collision_scratch;
   std::vector<PairCache> pair_caches;  ///< leaf-pair caches of the tree pairs, [i * bodies + j] for i < j

@@ -6,9 +6,11 @@
 #include <atomic>
 #include <cmath>
 #include <cstdlib>
+#include <map>
 #include <new>
 
 #include "core/float_mode.h"
+#include "core/local_solver.h"
 #include "core/world.h"
 #include "soft_bodies.h"
 
@@ -72,23 +74,37 @@ TEST(StepSafety, StepBudgetEndsTheSolveEarlyCountsItAndAllocatesNothing) {
   for (int i = 0; i < 300; ++i) w.Step();
   ASSERT_GT(w.rows.size(), 10u);
   w.params.solver.tolerance = 1e-14;  // out of reach: without the budget every step sweeps to the cap
-  w.params.step_time_budget_s = 1e-9;  // spent before the solve starts: one sweep per step
+  w.params.step_time_budget_s = 1e-9;  // spent before the solve starts
   g_allocations = 0;
   g_counting = true;
+  // no time for a sweep: a step keeps the warm start (in the cones), but never two
+  // in a row, so the steps alternate between no sweep and one
   for (int i = 0; i < 50; ++i) {
+    // the warm start of a step that skips is the last step's forces, turned into its frames
     w.Step();
-    ASSERT_EQ(w.profile.iterations, 1) << i;
+    const bool skipped = i % 2 == 0;
+    ASSERT_EQ(w.profile.solve_skipped, skipped) << i;
+    ASSERT_EQ(w.profile.iterations, skipped ? 0 : 1) << i;
     ASSERT_TRUE(w.profile.budget_stopped) << i;
     ASSERT_FALSE(w.profile.converged) << i;
     ASSERT_TRUE(std::isfinite(w.profile.residual)) << i;
+    for (const ContactRow& row : w.rows) {
+      ASSERT_TRUE(row.r.allFinite()) << i;
+      // in the cone |r_t| <= mu r_n
+      ASSERT_LE(std::hypot(row.r[1], row.r[2]), row.mu * row.r[0] * (1 + 1e-12) + 1e-300) << i;
+    }
   }
   g_counting = false;
   EXPECT_EQ(g_allocations.load(), 0);
   EXPECT_EQ(w.budget_stopped_steps, 50);
-  // out of time, the solve reports its last sweep's estimate (no exact pass)
-  for (int i = 0; i < 5; ++i) {
+  EXPECT_EQ(w.skipped_solves, 25);
+  // out of time, a step that sweeps reports its last sweep's estimate (no exact pass)
+  int swept = 0;
+  for (int i = 0; i < 10; ++i) {
     w.Step();
     ASSERT_TRUE(w.profile.budget_stopped) << i;
+    if (w.profile.solve_skipped) continue;
+    ++swept;
     EXPECT_TRUE(w.profile.residual_estimated) << i;
     EXPECT_FALSE(w.profile.residual_bounded) << i;
     FcProblem p;
@@ -96,20 +112,52 @@ TEST(StepSafety, StepBudgetEndsTheSolveEarlyCountsItAndAllocatesNothing) {
     AssembleContactProblem(w, &p, &r);
     const double exact = FcError(p, r);
     // the estimate is the error of the mixed iterate the sweep read, not of its
-    // result: the same order as the exact error (here 1.5-2.2x it), not a bound
+    // result: the order of the exact error, not a bound (here 2.3-11x it: each of
+    // these sweeps follows a step that kept the warm start; 1.5-2.2x when every
+    // step sweeps once)
     EXPECT_GT(exact, w.params.solver.tolerance) << i;
     EXPECT_GT(w.profile.residual, 0.1 * exact) << i;
-    EXPECT_LT(w.profile.residual, 10.0 * exact) << i;
+    EXPECT_LT(w.profile.residual, 30.0 * exact) << i;
   }
-  EXPECT_EQ(w.budget_stopped_steps, 55);
-  EXPECT_GE(w.unconverged_steps, 50);
+  EXPECT_EQ(swept, 5);
+  EXPECT_EQ(w.budget_stopped_steps, 60);
+  EXPECT_EQ(w.skipped_solves, 30);
+  EXPECT_GE(w.unconverged_steps, 60);
   EXPECT_EQ(w.rejected_steps, 0);
   // budget off: the sweep cap again
   w.params.step_time_budget_s = 0.0;
   w.Step();
   EXPECT_FALSE(w.profile.budget_stopped);
+  EXPECT_FALSE(w.profile.solve_skipped);
   EXPECT_EQ(w.profile.iterations, w.params.solver.max_iterations);
-  EXPECT_EQ(w.budget_stopped_steps, 55);
+  EXPECT_EQ(w.budget_stopped_steps, 60);
+  EXPECT_EQ(w.skipped_solves, 30);
+}
+
+// A step that skips its solve keeps the warm start: the last step's forces, each
+// projected on its cone; the step after sweeps again from them.
+TEST(StepSafety, SkippedSolveKeepsTheLastForces) {
+  World w;
+  BuildScene(w);
+  for (int i = 0; i < 300; ++i) w.Step();
+  ASSERT_GT(w.rows.size(), 10u);
+  std::map<uint64_t, Vec3> last;  // world force of each contact key
+  for (const ContactRow& row : w.rows) last[row.contact.key] = row.frame.transpose() * row.r;
+  w.params.step_time_budget_s = 1e-9;
+  w.Step();
+  ASSERT_TRUE(w.profile.solve_skipped);
+  int compared = 0;
+  for (const ContactRow& row : w.rows) {
+    const auto it = last.find(row.contact.key);
+    const Vec3 warm = it == last.end() ? Vec3::Zero() : Vec3(row.frame * it->second);
+    const Vec3 expect = ProjectOntoCone(warm, row.mu);
+    EXPECT_LE((row.r - expect).norm(), 1e-12 * (1.0 + expect.norm())) << row.contact.key;
+    compared += it == last.end() ? 0 : 1;
+  }
+  EXPECT_GT(compared, 10);
+  w.Step();
+  EXPECT_FALSE(w.profile.solve_skipped);
+  EXPECT_EQ(w.profile.iterations, 1);
 }
 
 TEST(StepSafety, NonFiniteStepIsRejectedAndThePreviousStateKept) {
