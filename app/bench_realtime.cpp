@@ -91,6 +91,7 @@ struct StepTrace {
   int contacts = 0, iterations = 0, cache_hits = 0, cache_builds = 0, cache_refills = 0, slice_tests = 0;
   StepWork work;
   bool frame = false, budget_stopped = false, solve_skipped = false;
+  double residual = 0.0;
 };
 
 struct RunResult {
@@ -227,6 +228,7 @@ bool RunOnce(const std::string& scene, const Session& session, double seconds, b
       t.frame = frame;
       t.budget_stopped = p.budget_stopped;
       t.solve_skipped = p.solve_skipped;
+      t.residual = p.residual;
       out->trace.push_back(t);
     }
     step_ms.push_back(1e3 * w.profile.total);
@@ -300,7 +302,7 @@ bool WriteTrace(FILE* f, const std::string& path, const RunResult& with, const R
                   "fill_w_rigid_ms,fill_w_deform_ms,solve_ms,constrained_motion_ms,step_ms,contacts,sweeps,"
                   "cache_hits,cache_builds,frame,budget_stop,node_tests,w_blocks_built,w_deform_sides,"
                   "w_deform_reused,w_deform_direct,weights_reused,deformed_points,bodies_asleep,contacts_reused,"
-                  "cache_refills,slice_tests,solve_skipped\n");
+                  "cache_refills,slice_tests,solve_skipped,residual\n");
   for (const RunResult* r : {&with, &without}) {
     for (const StepTrace& t : r->trace) {
       std::fprintf(f, "%d,%lld,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%d,%d,%d,%d,%d,%d,",
@@ -309,9 +311,9 @@ bool WriteTrace(FILE* f, const std::string& path, const RunResult& with, const R
                    t.constrained_motion, t.total, t.contacts, t.iterations, t.cache_hits, t.cache_builds,
                    t.frame ? 1 : 0, t.budget_stopped ? 1 : 0);
       const StepWork& k = t.work;
-      std::fprintf(f, "%d,%d,%d,%d,%d,%d,%d,%d,%d,%d,%d,%d\n", k.node_tests, k.w_blocks_built, k.w_deform_sides,
+      std::fprintf(f, "%d,%d,%d,%d,%d,%d,%d,%d,%d,%d,%d,%d,%.3g\n", k.node_tests, k.w_blocks_built, k.w_deform_sides,
                    k.w_deform_reused, k.w_deform_direct, k.weights_reused, k.deformed_points, k.bodies_asleep,
-                   k.contacts_reused, t.cache_refills, t.slice_tests, t.solve_skipped ? 1 : 0);
+                   k.contacts_reused, t.cache_refills, t.slice_tests, t.solve_skipped ? 1 : 0, t.residual);
     }
   }
   const bool ok = std::ferror(f) == 0;

@@ -116,7 +116,10 @@ void FinishRow(World& w, ContactRow* row, double gap_def, const Vec3& slip_def, 
   row->r.setZero();
   // warm start: the previous world force of the same key, in the new frame
   const int warm = warm_lookup->Find(c.key);
-  if (warm >= 0) row->r = row->frame * w.warm_prev[warm].second;
+  if (warm >= 0) {
+    row->r = row->frame * w.warm_prev[warm].second;
+    ++w.profile.work.warm_started;
+  }
 }
 
 }  // namespace

@@ -172,8 +172,11 @@ void SolveContacts(World& w) {
     const Vec3& r0 = w.rows[c].r;
     if (r0[0] != 0.0 || r0[1] != 0.0 || r0[2] != 0.0) op.ApplyDelta(c, r0);  // no warm start: nothing to move
   }
-  // no time left for one sweep (and the last step did sweep): the warm start stands
-  if (n > 0 && w.params.step_time_budget_s > 0.0 && w.last_sweep_s_ > 0.0 && !w.last_solve_skipped_) {
+  // no time left for one sweep (and the last step did sweep, and nearly every
+  // contact has a last force): the warm start stands
+  if (n > 0 && w.params.step_time_budget_s > 0.0 && w.params.budget_may_skip_solve && w.last_sweep_s_ > 0.0 &&
+      !w.last_solve_skipped_ &&
+      20 * (n - w.profile.work.warm_started) <= n) {
     const double spent = std::chrono::duration<double>(t0 - w.step_started()).count();
     const double left = w.params.step_time_budget_s - spent - w.last_constrained_motion_s();
     if (left < w.last_sweep_s_) {

@@ -250,11 +250,14 @@ struct WorldParams {
   /// stop. When the stages before the solve have left less than one sweep (what a
   /// sweep of the last solve took), the step does not sweep at all: its forces are
   /// the warm start (the last step's forces, in the cones), and it counts as a
-  /// skipped solve (StepProfile::solve_skipped); never two steps in a row, so a
-  /// machine that stays slow still solves every other step. Set by loops paced by
+  /// skipped solve (StepProfile::solve_skipped). Never two steps in a row, so a
+  /// machine that stays slow still solves every other step, and never when more
+  /// than 5 % of the contacts are new (no last force to keep: a landing). Set by loops paced by
   /// the wall clock (live sets it per step from its deadline); a step's result then
   /// depends on the machine's speed.
   double step_time_budget_s = 0.0;
+  /// false: a step out of time still sweeps once (late rather than unsolved)
+  bool budget_may_skip_solve = true;
 };
 
 /// Work done by the last step, counted where it is done: what a scene does not
@@ -272,6 +275,7 @@ struct StepWork {
   int w_deform_reused = 0;    ///< of those, merged influences copied from the last step (same contact, same weights)
   int w_deform_direct = 0;    ///< of those, sides on one control point, reading its influence in place (nothing merged)
   int weights_reused = 0;     ///< eq. 8 interpolations kept from the last step (anchor within reuse_anchor_tolerance)
+  int warm_started = 0;       ///< contacts whose solve starts from the last step's force of the same contact
   int local_solves_3d = 0;    ///< local Coulomb solves (normal and tangents)
   int local_solves_normal = 0;///< normal-only local solves (every contact frictionless)
   int propagations = 0;       ///< control-point updates u += phi F in the solver (displacement propagation)

@@ -6,7 +6,8 @@
 #include <atomic>
 #include <cmath>
 #include <cstdlib>
-#include <map>
+#include <algorithm>
+#include <vector>
 #include <new>
 
 #include "core/float_mode.h"
@@ -78,12 +79,21 @@ TEST(StepSafety, StepBudgetEndsTheSolveEarlyCountsItAndAllocatesNothing) {
   g_allocations = 0;
   g_counting = true;
   // no time for a sweep: a step keeps the warm start (in the cones), but never two
-  // in a row, so the steps alternate between no sweep and one
+  // in a row and never with more than 5 % new contacts; every other step sweeps once
+  bool last_skipped = false;
+  int skips = 0;
   for (int i = 0; i < 50; ++i) {
-    // the warm start of a step that skips is the last step's forces, turned into its frames
     w.Step();
-    const bool skipped = i % 2 == 0;
-    ASSERT_EQ(w.profile.solve_skipped, skipped) << i;
+    const bool skipped = w.profile.solve_skipped;
+    const int n = static_cast<int>(w.rows.size());
+    if (skipped) {
+      ASSERT_FALSE(last_skipped) << i;
+      ASSERT_LE(20 * (n - w.profile.work.warm_started), n) << i;
+    } else if (!last_skipped) {
+      ASSERT_GT(20 * (n - w.profile.work.warm_started), n) << i;  // it could have skipped otherwise
+    }
+    skips += skipped ? 1 : 0;
+    last_skipped = skipped;
     ASSERT_EQ(w.profile.iterations, skipped ? 0 : 1) << i;
     ASSERT_TRUE(w.profile.budget_stopped) << i;
     ASSERT_FALSE(w.profile.converged) << i;
@@ -97,41 +107,43 @@ TEST(StepSafety, StepBudgetEndsTheSolveEarlyCountsItAndAllocatesNothing) {
   g_counting = false;
   EXPECT_EQ(g_allocations.load(), 0);
   EXPECT_EQ(w.budget_stopped_steps, 50);
-  EXPECT_EQ(w.skipped_solves, 25);
-  // out of time, a step that sweeps reports its last sweep's estimate (no exact pass)
-  int swept = 0;
-  for (int i = 0; i < 10; ++i) {
+  EXPECT_EQ(w.skipped_solves, skips);
+  EXPECT_GE(skips, 10);
+  // with skips off, every step out of time sweeps once and reports its last
+  // sweep's estimate (no exact pass)
+  w.params.budget_may_skip_solve = false;
+  for (int i = 0; i < 5; ++i) {
     w.Step();
     ASSERT_TRUE(w.profile.budget_stopped) << i;
-    if (w.profile.solve_skipped) continue;
-    ++swept;
+    ASSERT_FALSE(w.profile.solve_skipped) << i;
+    ASSERT_EQ(w.profile.iterations, 1) << i;
     EXPECT_TRUE(w.profile.residual_estimated) << i;
     EXPECT_FALSE(w.profile.residual_bounded) << i;
+    if (i == 0) continue;  // its warm start may come from a step that kept the one before
     FcProblem p;
     Eigen::VectorXd r;
     AssembleContactProblem(w, &p, &r);
     const double exact = FcError(p, r);
     // the estimate is the error of the mixed iterate the sweep read, not of its
-    // result: the order of the exact error, not a bound (here 2.3-11x it: each of
-    // these sweeps follows a step that kept the warm start; 1.5-2.2x when every
-    // step sweeps once)
+    // result: near the exact error, not a bound (1.5-2.2x it in a run of one-sweep
+    // steps; up to 16x here, a few steps after the skips, where the exact error has
+    // fallen to ~1e-6)
     EXPECT_GT(exact, w.params.solver.tolerance) << i;
     EXPECT_GT(w.profile.residual, 0.1 * exact) << i;
     EXPECT_LT(w.profile.residual, 30.0 * exact) << i;
   }
-  EXPECT_EQ(swept, 5);
-  EXPECT_EQ(w.budget_stopped_steps, 60);
-  EXPECT_EQ(w.skipped_solves, 30);
-  EXPECT_GE(w.unconverged_steps, 60);
+  EXPECT_EQ(w.budget_stopped_steps, 55);
+  EXPECT_EQ(w.skipped_solves, skips);
+  EXPECT_GE(w.unconverged_steps, 55);
   EXPECT_EQ(w.rejected_steps, 0);
-  // budget off: the sweep cap again
+  // budget off: the solve sweeps on (to the tolerance or the cap)
   w.params.step_time_budget_s = 0.0;
   w.Step();
   EXPECT_FALSE(w.profile.budget_stopped);
   EXPECT_FALSE(w.profile.solve_skipped);
-  EXPECT_EQ(w.profile.iterations, w.params.solver.max_iterations);
-  EXPECT_EQ(w.budget_stopped_steps, 60);
-  EXPECT_EQ(w.skipped_solves, 30);
+  EXPECT_GT(w.profile.iterations, 10);
+  EXPECT_EQ(w.budget_stopped_steps, 55);
+  EXPECT_EQ(w.skipped_solves, skips);
 }
 
 // A step that skips its solve keeps the warm start: the last step's forces, each
@@ -141,21 +153,34 @@ TEST(StepSafety, SkippedSolveKeepsTheLastForces) {
   BuildScene(w);
   for (int i = 0; i < 300; ++i) w.Step();
   ASSERT_GT(w.rows.size(), 10u);
-  std::map<uint64_t, Vec3> last;  // world force of each contact key
-  for (const ContactRow& row : w.rows) last[row.contact.key] = row.frame.transpose() * row.r;
+  std::vector<std::pair<uint64_t, Vec3>> last;  // world force of each contact key, sorted by key
+  for (const ContactRow& row : w.rows) last.emplace_back(row.contact.key, row.frame.transpose() * row.r);
+  std::sort(last.begin(), last.end(), [](const auto& x, const auto& y) { return x.first < y.first; });
   w.params.step_time_budget_s = 1e-9;
   w.Step();
   ASSERT_TRUE(w.profile.solve_skipped);
   int compared = 0;
   for (const ContactRow& row : w.rows) {
-    const auto it = last.find(row.contact.key);
-    const Vec3 warm = it == last.end() ? Vec3::Zero() : Vec3(row.frame * it->second);
+    const auto it = std::lower_bound(last.begin(), last.end(), row.contact.key,
+                                     [](const auto& x, uint64_t k) { return x.first < k; });
+    const bool found = it != last.end() && it->first == row.contact.key;
+    const Vec3 warm = found ? Vec3(row.frame * it->second) : Vec3::Zero();
     const Vec3 expect = ProjectOntoCone(warm, row.mu);
     EXPECT_LE((row.r - expect).norm(), 1e-12 * (1.0 + expect.norm())) << row.contact.key;
-    compared += it == last.end() ? 0 : 1;
+    compared += found ? 1 : 0;
   }
   EXPECT_GT(compared, 10);
   w.Step();
+  EXPECT_FALSE(w.profile.solve_skipped);
+  EXPECT_EQ(w.profile.iterations, 1);
+  // contacts with no last force (here all of them: the last forces forgotten) are
+  // solved, out of time or not
+  w.Step();
+  ASSERT_TRUE(w.profile.solve_skipped);
+  w.Step();
+  w.warm_prev.clear();
+  w.Step();
+  EXPECT_EQ(w.profile.work.warm_started, 0);
   EXPECT_FALSE(w.profile.solve_skipped);
   EXPECT_EQ(w.profile.iterations, 1);
 }
