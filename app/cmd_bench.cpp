@@ -44,6 +44,9 @@ void AddBenchCommand(CLI::App& app, int* exit_code) {
       ->check(CLI::Range(0, 99));
   realtime->add_option("--spin-us", opt->spin_us, "busy-wait this long before each deadline instead of sleeping")
       ->check(CLI::Range(0.0, 1000.0));
+  realtime->add_flag("--skip-late-solves", opt->skip_late_solves,
+                     "a step whose stages before the solve left no time for a sweep keeps the last forces instead of "
+                     "sweeping late (never two steps in a row, never with over 5 % new contacts)");
   realtime->add_option("--step-budget", opt->step_budget,
                        "each step ends this fraction of the timestep into its slot: the solver stops sweeping "
                        "early, counted as a budget stop (0: no limit; default 0.8, as live)")

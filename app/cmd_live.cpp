@@ -26,6 +26,7 @@ struct LiveCmd {
   int rt_priority = 50;  ///< SCHED_FIFO priority of the simulation thread (0: normal)
   int cpu = 0;           ///< the simulation thread's core (-1: anywhere)
   double step_budget = 0.8;  ///< a step ends this fraction of the timestep into its slot (0: no limit)
+  bool skip_late_solves = false;
 };
 
 int Live(const LiveCmd& c) {
@@ -49,6 +50,7 @@ int Live(const LiveCmd& c) {
   o.pacing.priority = c.rt_priority;
   o.pacing.cpu = c.cpu;
   o.step_budget = c.step_budget;
+  o.skip_late_solves = c.skip_late_solves;
   const World& w = sim->world();
   char lcm[300];
   if (o.publish_rate > 0)
@@ -145,6 +147,9 @@ void AddLiveCommand(CLI::App& app, int* exit_code) {
                   "refusal is said and live goes on)")
       ->check(CLI::Range(0, 99))
       ->capture_default_str();
+  cmd->add_flag("--skip-late-solves", c->skip_late_solves,
+               "a step whose stages before the solve left no time for a sweep keeps the last forces instead of "
+               "sweeping late (never two steps in a row, never with over 5 % new contacts)");
   cmd->add_option("--step-budget", c->step_budget,
                   "each step ends this fraction of the timestep into its slot: the solver stops sweeping early, "
                   "and the step is counted as a budget stop (0: no limit)")

@@ -210,6 +210,7 @@ bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::str
   std::atomic<int64_t> sim_end_ns{0};  // when the simulation thread left its loop
   std::atomic<double> last_step_ms{0.0};
   const int64_t budget_ns = static_cast<int64_t>(std::llround(opt.step_budget * dt * 1e9));
+  w.params.budget_may_skip_solve = opt.skip_late_solves;
   double residual_max = 0.0;  // simulation thread; read after it is joined
   const int64_t unconverged_before = w.unconverged_steps, budget_before = w.budget_stopped_steps;
   const int64_t skipped_solves_before = w.skipped_solves;

@@ -37,6 +37,7 @@ struct LiveOptions {
   /// budget stop. When the loop runs behind its schedule the budget counts from the
   /// slot's start, so a late step solves less (at least one sweep).
   double step_budget = 0.0;
+  bool skip_late_solves = false;  ///< WorldParams::budget_may_skip_solve while live runs
 };
 
 struct LiveStats {

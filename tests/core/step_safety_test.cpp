@@ -76,6 +76,7 @@ TEST(StepSafety, StepBudgetEndsTheSolveEarlyCountsItAndAllocatesNothing) {
   ASSERT_GT(w.rows.size(), 10u);
   w.params.solver.tolerance = 1e-14;  // out of reach: without the budget every step sweeps to the cap
   w.params.step_time_budget_s = 1e-9;  // spent before the solve starts
+  w.params.budget_may_skip_solve = true;
   g_allocations = 0;
   g_counting = true;
   // no time for a sweep: a step keeps the warm start (in the cones), but never two
@@ -157,6 +158,7 @@ TEST(StepSafety, SkippedSolveKeepsTheLastForces) {
   for (const ContactRow& row : w.rows) last.emplace_back(row.contact.key, row.frame.transpose() * row.r);
   std::sort(last.begin(), last.end(), [](const auto& x, const auto& y) { return x.first < y.first; });
   w.params.step_time_budget_s = 1e-9;
+  w.params.budget_may_skip_solve = true;
   w.Step();
   ASSERT_TRUE(w.profile.solve_skipped);
   int compared = 0;
