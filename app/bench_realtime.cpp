@@ -1,12 +1,14 @@
 // `graspsim bench realtime [--json] [--seconds S] [--scene FILE] [--rt-priority N]
-// [--cpu N] [--spin-us N] [--step-budget F] [--skip-late-solves] [--steps-csv FILE]`: the performance target of issue 6. A tracked session
+// [--cpu N] [--spin-us N] [--step-budget F] [--lead-steps N] [--skip-late-solves] [--steps-csv FILE]`: the
+// performance target of issue 6. A tracked session
 // of the paper's grasp (config/tracked_paper_grasp.yaml by default; the synthetic
 // hand of `graspsim send --synthetic`: reach, close, lift, hold, release, its
 // 2.9 s cycle looped to S seconds at 100 Hz) is replayed at the recorded pace:
 // the replay's loop (cmd_replay.cpp: each datagram applies at its arrival in
 // simulated time, TrackedSim steps) paced on absolute deadlines as in the live
 // loop (live_loop.cpp and app/pacing.h: SCHED_FIFO on its own core; step k must
-// end by start + (k+1) dt), with the live render thread (FrameRecorder in
+// end by start + (k+1) dt, and may begin --lead-steps timesteps before its slot,
+// default 1: StepSchedule in app/pacing.h), with the live render thread (FrameRecorder in
 // ERecordMode::Live: a fixed pool of snapshots, never waited for, nice 10, one
 // llvmpipe thread, on the other cores) drawing 640x480 at 30 frames per
 // simulated second into a null sink. Then the same without rendering, then an
@@ -16,9 +18,9 @@
 // over 1 ms), the worst lateness, the wake-up lateness, the step's median, p99
 // and max, frames drawn and dropped, the machine's load average. A late step is
 // not skipped: the next starts at once (the replay catches up), so a missed
-// deadline delays but never drops simulated time. As in live, each step must end
-// F timesteps into its slot (default 0.8): the solver stops sweeping when the rest of
-// that would not hold another sweep; such steps are counted (budget stops) with
+// deadline delays but never drops simulated time. As in live, each step has F
+// timesteps from its beginning and ends at most F timesteps into its slot (default
+// 0.8): the solver stops sweeping when the rest of that would not hold another sweep; such steps are counted (budget stops) with
 // the largest solver error reached (the last sweep's estimate where the exact pass did
 // not fit either: core/nsgs.h). --steps-csv writes every step of both runs
 // (loop time, lateness, stage times, contacts, sweeps, the step's work counters)
@@ -102,9 +104,9 @@ struct RunResult {
   int64_t late_runs = 0;        ///< runs of consecutive late steps (one delay makes a run while the replay catches up)
   int64_t overlong = 0;         ///< steps whose own loop time exceeded the period (late by their own work)
   // each missed deadline by its cause (the three add up to `missed`):
-  int64_t missed_own = 0;       ///< the step's own work: it began within its budget's slack and still ended late
-  int64_t missed_woke_late = 0; ///< the machine: the previous step was on time, but this one began later than
-                                ///< the slack its budget leaves ((1 - step budget) of a timestep)
+  int64_t missed_own = 0;       ///< the step's own work: it began in time for its whole budget and still ended late
+  int64_t missed_woke_late = 0; ///< the machine: the previous step was on time, but this one began too late for
+                                ///< its whole budget (StepSchedule::LatestBeginNs)
   int64_t missed_carried = 0;   ///< catching up: the previous step was late already
   double load_start = 0, load_end = 0;  ///< the machine's 1-minute load average before and after
   double worst_late_ms = 0.0;   ///< largest (end - deadline)
@@ -126,7 +128,7 @@ struct RunResult {
 };
 
 bool RunOnce(const std::string& scene, const Session& session, double seconds, bool render, const PacingOptions& po,
-             double step_budget, bool skip_late_solves, bool trace, RunResult* out, std::string* error) {
+             int lead, double step_budget, bool skip_late_solves, bool trace, RunResult* out, std::string* error) {
   auto sim = std::make_unique<TrackedSim>();
   if (!sim->Load(scene, error)) return false;
   World& w = sim->world();
@@ -157,16 +159,16 @@ bool RunOnce(const std::string& scene, const Session& session, double seconds, b
   const PacingGrant grant = EnterRealtime(po);
   out->pacing = grant.Describe();
   out->refused = grant.refused;
-  const int64_t start = MonotonicNs() + 2 * period;
+  StepSchedule schedule;
+  schedule.start_ns = MonotonicNs() + (2 + lead) * period;
+  schedule.period_ns = period;
+  schedule.lead = lead;
   out->load_start = LoadAverage();
   bool was_late = false;
-  // how late a step may begin and still have its budget: the part of the slot the budget leaves free
-  const int64_t slack =
-      step_budget > 0.0 && step_budget < 1.0 ? static_cast<int64_t>(std::llround((1.0 - step_budget) * period)) : 0;
   for (int64_t k = 0; k < steps; ++k) {
-    WaitUntilNs(start + k * period, po.spin_ns);
+    WaitUntilNs(schedule.ReleaseNs(k), po.spin_ns);
     const int64_t begin = MonotonicNs();
-    wake_ms.push_back(1e-6 * static_cast<double>(begin - (start + k * period)));
+    wake_ms.push_back(1e-6 * static_cast<double>(begin - schedule.ReleaseNs(k)));
     // every datagram that arrived by now applies from this step on (as in replay)
     while (next < session.datagrams.size() && session.arrival_s[next] <= w.time + 1e-12) {
       const std::string& d = session.datagrams[next];
@@ -175,9 +177,8 @@ bool RunOnce(const std::string& scene, const Session& session, double seconds, b
       sim->Push(sample);
       ++next;
     }
-    if (step_budget > 0.0)  // as in live: the step ends step_budget timesteps into its slot
-      w.params.step_time_budget_s =
-          std::max(1e-9, step_budget * dt - 1e-9 * static_cast<double>(begin - (start + k * period)));
+    if (step_budget > 0.0)  // as in live (app/pacing.h): step_budget of a timestep, never past as far into its slot
+      w.params.step_time_budget_s = schedule.BudgetS(k, begin, step_budget);
     sim->Step();
     out->unconverged += w.profile.converged ? 0 : 1;
     out->budget_stops += w.profile.budget_stopped ? 1 : 0;
@@ -187,7 +188,7 @@ bool RunOnce(const std::string& scene, const Session& session, double seconds, b
     if (frame) sim->HudText(tracker_text, sizeof tracker_text);
     recorder.AfterStep(w, tracker_text);
     const int64_t end = MonotonicNs();
-    const int64_t late = end - (start + (k + 1) * period);
+    const int64_t late = end - schedule.DeadlineNs(k);
     if (end - begin > period) ++out->overlong;
     const bool prev_late = was_late;
     if (late > 0 && !was_late) ++out->late_runs;
@@ -195,10 +196,9 @@ bool RunOnce(const std::string& scene, const Session& session, double seconds, b
     if (late > 0) {
       ++out->missed;
       out->worst_late_ms = std::max(out->worst_late_ms, 1e-6 * static_cast<double>(late));
-      const int64_t woke = begin - (start + k * period);
       if (end - begin <= period && prev_late)
         ++out->missed_carried;
-      else if (end - begin <= period && woke > slack)
+      else if (end - begin <= period && begin > schedule.LatestBeginNs(k, step_budget))
         ++out->missed_woke_late;
       else
         ++out->missed_own;
@@ -241,7 +241,7 @@ bool RunOnce(const std::string& scene, const Session& session, double seconds, b
       lifted = up;
     }
   }
-  out->wall_s = 1e-9 * static_cast<double>(MonotonicNs() - start);
+  out->wall_s = 1e-9 * static_cast<double>(MonotonicNs() - schedule.ReleaseNs(0));
   LeaveRealtime();
   out->load_end = LoadAverage();
   out->steps = steps;
@@ -267,20 +267,22 @@ struct EmptyResult {
   double worst_late_ms = 0.0, wake_p99_ms = 0.0, wake_max_ms = 0.0;
 };
 
-EmptyResult RunEmpty(double seconds, double dt, const PacingOptions& po) {
+EmptyResult RunEmpty(double seconds, double dt, const PacingOptions& po, int lead) {
   EmptyResult r;
   r.steps = static_cast<int64_t>(std::llround(seconds / dt));
   std::vector<double> wake_ms;
   wake_ms.reserve(static_cast<size_t>(r.steps));
   EnterRealtime(po);
-  const int64_t period = static_cast<int64_t>(std::llround(dt * 1e9));
-  const int64_t start = MonotonicNs() + 2 * period;
+  StepSchedule schedule;
+  schedule.period_ns = static_cast<int64_t>(std::llround(dt * 1e9));
+  schedule.start_ns = MonotonicNs() + (2 + lead) * schedule.period_ns;
+  schedule.lead = lead;
   bool was_late = false;
   for (int64_t k = 0; k < r.steps; ++k) {
-    WaitUntilNs(start + k * period, po.spin_ns);
+    WaitUntilNs(schedule.ReleaseNs(k), po.spin_ns);
     const int64_t end = MonotonicNs();
-    wake_ms.push_back(1e-6 * static_cast<double>(end - (start + k * period)));
-    const int64_t late = end - (start + (k + 1) * period);
+    wake_ms.push_back(1e-6 * static_cast<double>(end - schedule.ReleaseNs(k)));
+    const int64_t late = end - schedule.DeadlineNs(k);
     if (late > 0 && !was_late) ++r.late_runs;
     was_late = late > 0;
     if (late > 0) {
@@ -369,8 +371,10 @@ int RunBenchRealtime(const BenchOptions& opt) {
                  std::strerror(errno));
     return 3;
   }
-  if (!RunOnce(scene, session, seconds, true, po, opt.step_budget, opt.skip_late_solves, trace, &with, &error) ||
-      !RunOnce(scene, session, seconds, false, po, opt.step_budget, opt.skip_late_solves, trace, &without, &error) ||
+  if (!RunOnce(scene, session, seconds, true, po, opt.lead_steps, opt.step_budget, opt.skip_late_solves, trace, &with,
+               &error) ||
+      !RunOnce(scene, session, seconds, false, po, opt.lead_steps, opt.step_budget, opt.skip_late_solves, trace,
+               &without, &error) ||
       (trace && !WriteTrace(std::exchange(trace_file, nullptr), opt.steps_csv, with, without, &error))) {
     if (trace_file) {  // a run failed: the trace is not written
       std::fclose(trace_file);
@@ -379,7 +383,7 @@ int RunBenchRealtime(const BenchOptions& opt) {
     std::fprintf(stderr, "bench realtime: %s\n", error.c_str());
     return 3;
   }
-  empty = RunEmpty(seconds, with.dt, po);
+  empty = RunEmpty(seconds, with.dt, po, opt.lead_steps);
   if (opt.json) {
     PrintJson(without, seconds);
     PrintJson(with, seconds);
@@ -394,7 +398,7 @@ int RunBenchRealtime(const BenchOptions& opt) {
                 "\"frames_dropped\":%d,\"no_render_missed_deadlines\":%lld,\"no_render_worst_lateness_ms\":%.4f,"
                 "\"no_render_step_ms_median\":%.4f,\"empty_loop_missed_deadlines\":%lld,\"empty_loop_late_runs\":%lld,"
                 "\"unconverged_steps\":%lld,\"budget_stops\":%lld,\"skipped_solves\":%lld,\"step_budget\":%g,"
-                "\"pacing\":\"%s\",\"target_met\":%s}\n",
+                "\"lead_steps\":%d,\"pacing\":\"%s\",\"target_met\":%s}\n",
                 seconds, static_cast<long long>(with.steps), static_cast<long long>(with.missed),
                 static_cast<long long>(with.late_runs), static_cast<long long>(with.overlong),
                 static_cast<long long>(with.missed_own), static_cast<long long>(with.missed_woke_late),
@@ -403,7 +407,7 @@ int RunBenchRealtime(const BenchOptions& opt) {
                 static_cast<long long>(without.missed), without.worst_late_ms, without.step_median_ms,
                 static_cast<long long>(empty.missed), static_cast<long long>(empty.late_runs),
                 static_cast<long long>(with.unconverged), static_cast<long long>(with.budget_stops),
-                static_cast<long long>(with.skipped_solves), opt.step_budget,
+                static_cast<long long>(with.skipped_solves), opt.step_budget, opt.lead_steps,
                 with.pacing.c_str(), with.missed == 0 && with.step_median_ms <= 1.0 ? "true" : "false");
     return 0;
   }
@@ -425,8 +429,10 @@ int RunBenchRealtime(const BenchOptions& opt) {
                 "loop past the budget's slack), %lld catching up after a late step\n",
                 r->render ? "with rendering" : "without rendering", static_cast<long long>(r->missed_own),
                 static_cast<long long>(r->missed_woke_late), static_cast<long long>(r->missed_carried));
-  std::printf("  simulation thread: %s%s%s; spin %.0f us before each deadline\n", with.pacing.c_str(),
-              with.refused.empty() ? "" : "; ", with.refused.c_str(), opt.spin_us);
+  std::printf("  simulation thread: %s%s%s; spin %.0f us before each wake-up; a step may begin %d timestep%s "
+              "before its slot (--lead-steps)\n",
+              with.pacing.c_str(), with.refused.empty() ? "" : "; ", with.refused.c_str(), opt.spin_us, opt.lead_steps,
+              opt.lead_steps == 1 ? "" : "s");
   for (const RunResult* r : {&with, &without})
     std::printf("  %s: %lld steps unconverged, %lld of them stopped by the step budget (%g of a timestep into "
                 "the slot%s), %lld of those with no time left for a sweep (the last forces kept); largest solver "

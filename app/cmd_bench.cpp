@@ -48,9 +48,14 @@ void AddBenchCommand(CLI::App& app, int* exit_code) {
                      "a step whose stages before the solve left no time for a sweep keeps the last forces instead of "
                      "sweeping late (never two steps in a row, never with over 5 % new contacts)");
   realtime->add_option("--step-budget", opt->step_budget,
-                       "each step ends this fraction of the timestep into its slot: the solver stops sweeping "
-                       "early, counted as a budget stop (0: no limit; default 0.8, as live)")
+                       "each step has this fraction of the timestep and ends at most as far into its slot: the "
+                       "solver stops sweeping early, counted as a budget stop (0: no limit; default 0.8, as live)")
       ->check(CLI::Range(0.0, 10.0));
+  realtime->add_option("--lead-steps", opt->lead_steps,
+                       "a step may begin this many timesteps before its own slot, so that a long step uses what the "
+                       "steps before it left over (deadlines unchanged: step k ends by (k+1) dt; default 1, as live; "
+                       "0: each step has its slot only)")
+      ->check(CLI::Range(0, 10));
   realtime->add_option("--cpu", opt->cpu,
                        "the simulation loop's core; rendering runs on the others (-1: no pinning)")
       ->check(CLI::Range(-1, 1023));

@@ -25,7 +25,8 @@ struct LiveCmd {
   RenderOptions render;  ///< --frames, --video, ... (docs/render.md)
   int rt_priority = 50;  ///< SCHED_FIFO priority of the simulation thread (0: normal)
   int cpu = 0;           ///< the simulation thread's core (-1: anywhere)
-  double step_budget = 0.8;  ///< a step ends this fraction of the timestep into its slot (0: no limit)
+  double step_budget = 0.8;  ///< a step has this fraction of the timestep, ending at most as far into its slot (0: no limit)
+  int lead_steps = 1;        ///< a step may begin this many timesteps before its slot
   bool skip_late_solves = false;
 };
 
@@ -50,6 +51,7 @@ int Live(const LiveCmd& c) {
   o.pacing.priority = c.rt_priority;
   o.pacing.cpu = c.cpu;
   o.step_budget = c.step_budget;
+  o.lead_steps = c.lead_steps;
   o.skip_late_solves = c.skip_late_solves;
   const World& w = sim->world();
   char lcm[300];
@@ -94,8 +96,9 @@ int Live(const LiveCmd& c) {
               static_cast<long long>(st.unconverged_steps), static_cast<long long>(st.budget_stops),
               o.step_budget > 0 ? (std::to_string(o.step_budget) + " of a timestep").c_str() : "off",
               static_cast<long long>(st.skipped_solves), st.residual_max);
-  std::printf("live: simulation thread: %s%s%s\n", st.pacing.Describe().c_str(), st.pacing.refused.empty() ? "" : "; ",
-              st.pacing.refused.c_str());
+  std::printf("live: simulation thread: %s%s%s; a step may begin %d timestep%s before its slot (--lead-steps)\n",
+              st.pacing.Describe().c_str(), st.pacing.refused.empty() ? "" : "; ", st.pacing.refused.c_str(),
+              o.lead_steps, o.lead_steps == 1 ? "" : "s");
   std::printf("live: tracker %.2f Hz received (%llu datagrams, %llu applied, the rest stale), parse errors %s, %llu "
               "rejected senders; %llu LCM messages published\n",
               st.tracker_hz, static_cast<unsigned long long>(st.datagrams),
@@ -151,9 +154,15 @@ void AddLiveCommand(CLI::App& app, int* exit_code) {
                "a step whose stages before the solve left no time for a sweep keeps the last forces instead of "
                "sweeping late (never two steps in a row, never with over 5 % new contacts)");
   cmd->add_option("--step-budget", c->step_budget,
-                  "each step ends this fraction of the timestep into its slot: the solver stops sweeping early, "
-                  "and the step is counted as a budget stop (0: no limit)")
+                  "each step has this fraction of the timestep and ends at most as far into its slot: the solver "
+                  "stops sweeping early, and the step is counted as a budget stop (0: no limit)")
       ->check(CLI::Range(0.0, 10.0))
+      ->capture_default_str();
+  cmd->add_option("--lead-steps", c->lead_steps,
+                  "a step may begin this many timesteps before its own slot, so that a long step uses what the "
+                  "steps before it left over (deadlines unchanged: step k ends by (k+1) dt; 0: each step has its "
+                  "slot only)")
+      ->check(CLI::Range(0, 10))
       ->capture_default_str();
   cmd->add_option("--cpu", c->cpu, "the simulation thread's core; rendering runs on the others (-1: anywhere)")
       ->check(CLI::Range(-1, 1023))

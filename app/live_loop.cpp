@@ -209,7 +209,6 @@ bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::str
   std::atomic<int64_t> steps{0}, overruns{0}, skipped{0}, applied{0};
   std::atomic<int64_t> sim_end_ns{0};  // when the simulation thread left its loop
   std::atomic<double> last_step_ms{0.0};
-  const int64_t budget_ns = static_cast<int64_t>(std::llround(opt.step_budget * dt * 1e9));
   w.params.budget_may_skip_solve = opt.skip_late_solves;
   double residual_max = 0.0;  // simulation thread; read after it is joined
   const int64_t unconverged_before = w.unconverged_steps, budget_before = w.budget_stopped_steps;
@@ -223,16 +222,19 @@ bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::str
   stats->latency_us.reserve(200000);
   // memory is locked before the clock starts: it takes a while in a large process
   const PacingGrant locked = LockMemory(opt.pacing);
-  const int64_t start_ns = SteadyNanoseconds() + 2 * period_ns;
+  const int64_t start_ns = SteadyNanoseconds() + (2 + opt.lead_steps) * period_ns;
   if (frames && !frames->active()) frames = nullptr;
   std::thread sim_thread([&] {
     // this thread alone: the receiver and render threads keep normal scheduling
     stats->pacing = EnterRealtime(opt.pacing, &locked);
     tracking::TargetSample s;
     char tracker_text[160] = "";
-    int64_t k = 0;          // step index on the schedule
-    int64_t anchor = start_ns;
-    WaitUntilNs(anchor, opt.pacing.spin_ns);
+    int64_t k = 0;  // step index on the schedule
+    StepSchedule schedule;  // app/pacing.h: step k ends by start + (k+1) dt, may begin lead_steps earlier
+    schedule.start_ns = start_ns;
+    schedule.period_ns = period_ns;
+    schedule.lead = opt.lead_steps;
+    WaitUntilNs(schedule.ReleaseNs(0), opt.pacing.spin_ns);
     while (!stop.load(std::memory_order_relaxed)) {
       const int64_t begin = SteadyNanoseconds();
       bool fresh = false;
@@ -241,21 +243,20 @@ bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::str
         fresh = true;
         applied.fetch_add(1, std::memory_order_relaxed);
       }
-      const int64_t deadline = anchor + (k + 1) * period_ns;
-      if (budget_ns > 0) {
-        // the step must end budget_ns into its slot (late steps get what is left, at least one sweep)
-        w.params.step_time_budget_s = std::max(1e-9, 1e-9 * static_cast<double>(deadline - period_ns + budget_ns - begin));
-      }
+      const int64_t deadline = schedule.DeadlineNs(k);
+      // step_budget of a timestep, never past as far into the step's slot (late steps get what is left, at least one sweep)
+      if (opt.step_budget > 0.0) w.params.step_time_budget_s = schedule.BudgetS(k, begin, opt.step_budget);
       sim.Step();
       const int64_t end = SteadyNanoseconds();
       if (!w.profile.solve_skipped) residual_max = std::max(residual_max, w.profile.residual);
       if (fresh && stats->latency_us.size() < stats->latency_us.capacity()) {
         // the step in progress when it arrived, and the one that applied it: the
-        // schedule's slot at its arrival, or, when the loop runs behind its
-        // schedule (catching up), the step then executing (k - 1); the slot alone
-        // would count steps not yet run and give a negative latency
-        const int64_t slot = (s.arrival_ns - anchor) >= 0 ? (s.arrival_ns - anchor) / period_ns : -1;
-        const int64_t k_arrival = std::min(slot, k - 1);
+        // step the schedule released last before its arrival, or, when the loop runs
+        // behind its schedule (catching up), the step then executing (k - 1); the
+        // schedule alone would count steps not yet run and give a negative latency
+        const int64_t since = s.arrival_ns - schedule.ReleaseNs(0);
+        const int64_t released = since >= 0 ? since / period_ns : -1;
+        const int64_t k_arrival = std::min(released, k - 1);
         stats->latency_steps.push_back(static_cast<int>(k - k_arrival));
         stats->latency_us.push_back(1e-3 * static_cast<double>(end - s.arrival_ns));
       }
@@ -273,12 +274,12 @@ bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::str
       }
       steps.fetch_add(1, std::memory_order_relaxed);
       ++k;
-      const int64_t next = anchor + k * period_ns;
+      const int64_t next = schedule.ReleaseNs(k);
       if (end - next > 50000000) {
         // more than 50 ms behind: give up the missed deadlines instead of racing to catch up
         const int64_t behind = (end - next) / period_ns;
         skipped.fetch_add(behind, std::memory_order_relaxed);
-        anchor += behind * period_ns;
+        schedule.start_ns += behind * period_ns;
         continue;
       }
       WaitUntilNs(next, opt.pacing.spin_ns);
@@ -286,7 +287,7 @@ bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::str
     // a thread held off the core at the end (another real-time loop on it, throttling)
     // gave up the slots from its schedule's position to now: counted as skipped
     const int64_t exit_ns = SteadyNanoseconds();
-    const int64_t next = anchor + k * period_ns;
+    const int64_t next = schedule.ReleaseNs(k);
     if (exit_ns - next >= period_ns) skipped.fetch_add((exit_ns - next) / period_ns, std::memory_order_relaxed);
     sim_end_ns.store(exit_ns);
   });

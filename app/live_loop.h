@@ -31,12 +31,18 @@ struct LiveOptions {
   bool quiet = false;           ///< neither the status line nor tracker events
   double silent_after_s = 0.25; ///< no datagram this long: the tracker is reported silent
   PacingOptions pacing;         ///< the simulation thread's scheduling (app/pacing.h); default normal
-  /// A step must end this fraction of the timestep into its slot (0: no limit): the
-  /// solver stops sweeping when the rest would not hold another sweep
+  /// A step has this fraction of the timestep from its beginning and must end at most
+  /// as far into its slot (0: no limit; StepSchedule::BudgetS): the solver stops
+  /// sweeping when the rest would not hold another sweep
   /// (WorldParams::step_time_budget_s), and the step counts as unconverged and as a
-  /// budget stop. When the loop runs behind its schedule the budget counts from the
-  /// slot's start, so a late step solves less (at least one sweep).
+  /// budget stop. When the loop runs behind its schedule a step solves less (at least
+  /// one sweep).
   double step_budget = 0.0;
+  /// A step may begin this many timesteps before its slot (StepSchedule in app/pacing.h):
+  /// a long step then uses what the steps before it left over instead of missing its
+  /// deadline. A datagram is still applied by the first step that begins after its
+  /// arrival; the simulated time runs up to this many timesteps ahead of the clock.
+  int lead_steps = 1;
   bool skip_late_solves = false;  ///< WorldParams::budget_may_skip_solve while live runs
 };
 

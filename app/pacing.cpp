@@ -12,6 +12,8 @@
 #include <time.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -147,6 +149,17 @@ void LeaveRealtime() {
   sched_param sp{};
   sp.sched_priority = 0;
   pthread_setschedparam(pthread_self(), SCHED_OTHER, &sp);
+}
+
+double StepSchedule::BudgetS(int64_t k, int64_t begin_ns, double fraction) const {
+  const int64_t share = static_cast<int64_t>(std::llround(fraction * static_cast<double>(period_ns)));
+  const int64_t end = std::min(begin_ns + share, DeadlineNs(k) - period_ns + share);
+  return std::max(1e-9, 1e-9 * static_cast<double>(end - begin_ns));
+}
+
+int64_t StepSchedule::LatestBeginNs(int64_t k, double fraction) const {
+  const double f = fraction > 0.0 && fraction < 1.0 ? fraction : 1.0;
+  return DeadlineNs(k) - static_cast<int64_t>(std::llround(f * static_cast<double>(period_ns)));
 }
 
 int64_t MonotonicNs() {

@@ -63,6 +63,34 @@ std::string ClaimCore(int cpu, const std::string& dir = "/tmp");
 /// Back to normal scheduling for the calling thread (memory stays locked until exit).
 void LeaveRealtime();
 
+/// The fixed-rate loop's schedule. Step k simulates [k dt, (k+1) dt) and must end by
+/// its deadline, start + (k+1) dt: the wall-clock time its simulated end stands for.
+/// It may begin `lead` timesteps before its own slot, at start + (k - lead) dt. With
+/// lead 0 a step has its slot and nothing more; with lead 1 a step that runs long
+/// (a slow stretch of the machine, a hard contact configuration) uses the time the
+/// steps before it left over instead of missing its deadline. A recorded session's
+/// datagrams apply by simulated time, so the lead changes no replayed input; live,
+/// a datagram is applied by the first step that begins after it arrived, as without
+/// the lead, so the wall-clock time from its arrival to the state that holds it is the
+/// same; only the state's simulated time is up to `lead` timesteps ahead of the clock.
+struct StepSchedule {
+  int64_t start_ns = 0;
+  int64_t period_ns = 1000000;
+  int lead = 0;
+  /// the earliest step k begins
+  int64_t ReleaseNs(int64_t k) const { return start_ns + (k - lead) * period_ns; }
+  /// step k is late when it ends after this
+  int64_t DeadlineNs(int64_t k) const { return start_ns + (k + 1) * period_ns; }
+  /// The step budget (WorldParams::step_time_budget_s) of step k begun at `begin_ns`:
+  /// `fraction` of a timestep from its beginning, and never past `fraction` of a timestep
+  /// into its own slot (so a late step solves less, and a step begun early does not spend
+  /// its lead); at least 1 ns (one sweep). Steps stay within the rate on average.
+  double BudgetS(int64_t k, int64_t begin_ns, double fraction) const;
+  /// the latest begin that leaves step k its whole budget (a later begin is the machine's
+  /// doing: the loop woke late)
+  int64_t LatestBeginNs(int64_t k, double fraction) const;
+};
+
 /// CLOCK_MONOTONIC in nanoseconds.
 int64_t MonotonicNs();
 

@@ -76,6 +76,7 @@ TEST(BenchRealtime, TwoSecondsGiveConsistentCounts) {
   EXPECT_EQ(JsonField(last, "no_render_missed_own_work"), JsonField(without, "missed_own_work"));
   EXPECT_EQ(JsonField(last, "budget_stops"), JsonField(with, "budget_stops"));
   EXPECT_EQ(JsonField(last, "step_budget"), 0.8);
+  EXPECT_EQ(JsonField(last, "lead_steps"), 1);  // live's default (app/pacing.h StepSchedule)
   // the grasp happens in both; the replay is deterministic in simulated time unless the
   // step budget (a wall-clock limit) cut a solve short in either run
   EXPECT_GT(JsonField(with, "max_contacts"), 0);
@@ -91,47 +92,56 @@ TEST(BenchRealtime, TwoSecondsGiveConsistentCounts) {
 }
 
 // --steps-csv: one line per step of each run, rendering first, its late steps
-// those the run counted as missed deadlines
+// those the run counted as missed deadlines. Each step's lateness is its wake-up
+// lateness (from its release) plus its loop time less the time from its release to
+// its deadline: one timestep with --lead-steps 0, two with --lead-steps 1.
 TEST(BenchRealtime, StepsCsvHoldsEveryStepOfBothRuns) {
-  const std::string csv = std::string(::testing::TempDir()) + "/bench_realtime_steps.csv";
-  std::remove(csv.c_str());
-  const std::vector<std::string> lines =
-      RunJsonLines("bench realtime --seconds 0.5 --json --steps-csv " + csv + " --scene " +
-                       std::string(GRASPSIM_SOURCE_DIR) + "/config/tracked_hand.yaml",
-                   "bench_realtime_steps.json");
-  ASSERT_EQ(lines.size(), 4u);
-  FILE* f = std::fopen(csv.c_str(), "r");
-  ASSERT_NE(f, nullptr) << csv;
-  char buf[4096];
-  ASSERT_NE(std::fgets(buf, sizeof buf, f), nullptr);
-  const std::string header = buf;
-  EXPECT_EQ(header.rfind("rendering,step,wake_ms,loop_ms,late_ms,", 0), 0u) << header;
-  int columns = 1;
-  for (char c : header) columns += c == ',' ? 1 : 0;
-  int rows[2] = {0, 0}, late[2] = {0, 0}, order_errors = 0;
-  bool saw_without = false;
-  while (std::fgets(buf, sizeof buf, f)) {
-    int fields = 1;
-    for (const char* c = buf; *c; ++c) fields += *c == ',' ? 1 : 0;
-    EXPECT_EQ(fields, columns) << buf;
-    int rendering = -1;
-    long long step = -1;
-    double wake = 0, loop = -1, late_ms = 0;
-    ASSERT_EQ(std::sscanf(buf, "%d,%lld,%lf,%lf,%lf", &rendering, &step, &wake, &loop, &late_ms), 5) << buf;
-    ASSERT_TRUE(rendering == 0 || rendering == 1) << buf;
-    if (rendering == 0) saw_without = true;
-    if (rendering == 1 && saw_without) ++order_errors;  // the rendering run comes first
-    EXPECT_EQ(step, rows[rendering]) << buf;             // every step, in order
-    EXPECT_GT(loop, 0.0) << buf;
-    ++rows[rendering];
-    late[rendering] += late_ms > 0.0 ? 1 : 0;
+  for (int lead : {0, 1}) {
+    SCOPED_TRACE("--lead-steps " + std::to_string(lead));
+    const std::string csv = std::string(::testing::TempDir()) + "/bench_realtime_steps.csv";
+    std::remove(csv.c_str());
+    const std::vector<std::string> lines =
+        RunJsonLines("bench realtime --seconds 0.5 --lead-steps " + std::to_string(lead) + " --json --steps-csv " +
+                         csv + " --scene " + std::string(GRASPSIM_SOURCE_DIR) + "/config/tracked_hand.yaml",
+                     "bench_realtime_steps.json");
+    ASSERT_EQ(lines.size(), 4u);
+    EXPECT_EQ(JsonField(lines[3], "lead_steps"), lead);
+    FILE* f = std::fopen(csv.c_str(), "r");
+    ASSERT_NE(f, nullptr) << csv;
+    char buf[4096];
+    ASSERT_NE(std::fgets(buf, sizeof buf, f), nullptr);
+    const std::string header = buf;
+    EXPECT_EQ(header.rfind("rendering,step,wake_ms,loop_ms,late_ms,", 0), 0u) << header;
+    int columns = 1;
+    for (char c : header) columns += c == ',' ? 1 : 0;
+    int rows[2] = {0, 0}, late[2] = {0, 0}, order_errors = 0;
+    bool saw_without = false;
+    while (std::fgets(buf, sizeof buf, f)) {
+      int fields = 1;
+      for (const char* c = buf; *c; ++c) fields += *c == ',' ? 1 : 0;
+      EXPECT_EQ(fields, columns) << buf;
+      int rendering = -1;
+      long long step = -1;
+      double wake = 0, loop = -1, late_ms = 0;
+      ASSERT_EQ(std::sscanf(buf, "%d,%lld,%lf,%lf,%lf", &rendering, &step, &wake, &loop, &late_ms), 5) << buf;
+      ASSERT_TRUE(rendering == 0 || rendering == 1) << buf;
+      if (rendering == 0) saw_without = true;
+      if (rendering == 1 && saw_without) ++order_errors;  // the rendering run comes first
+      EXPECT_EQ(step, rows[rendering]) << buf;             // every step, in order
+      EXPECT_GT(loop, 0.0) << buf;
+      EXPECT_GE(wake, 0.0) << buf;  // no step begins before its release
+      // the three columns come from the same two clock readings (each rounded to 0.1 us)
+      EXPECT_NEAR(late_ms, wake + loop - (1 + lead), 2e-4) << buf;
+      ++rows[rendering];
+      late[rendering] += late_ms > 0.0 ? 1 : 0;
+    }
+    std::fclose(f);
+    EXPECT_EQ(order_errors, 0);
+    EXPECT_EQ(rows[1], 500);
+    EXPECT_EQ(rows[0], 500);
+    EXPECT_EQ(late[0], JsonField(lines[0], "missed_deadlines"));
+    EXPECT_EQ(late[1], JsonField(lines[1], "missed_deadlines"));
   }
-  std::fclose(f);
-  EXPECT_EQ(order_errors, 0);
-  EXPECT_EQ(rows[1], 500);
-  EXPECT_EQ(rows[0], 500);
-  EXPECT_EQ(late[0], JsonField(lines[0], "missed_deadlines"));
-  EXPECT_EQ(late[1], JsonField(lines[1], "missed_deadlines"));
 }
 
 // a file that cannot be written is said, with its name, and no run is lost silently

@@ -9,11 +9,13 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <string>
 
 #include <thread>
+#include <vector>
 
 namespace gs::app {
 namespace {
@@ -133,6 +135,53 @@ TEST(Pacing, WaitEndsAtItsDeadlineAndReturnsAtOnceWhenItHasPassed) {
   WaitUntilNs(before - 1000000000, 0);  // a second ago
   // no sleep: far less than a second (a generous bound, not a timing figure)
   EXPECT_LT(MonotonicNs() - before, 500000000);
+}
+
+// The schedule's arithmetic: deadlines do not move with the lead, only the release;
+// a step's budget counts from its beginning and never reaches past the same point of
+// its slot; a long step after short ones misses its deadline without a lead and meets
+// it with one, and steps that run long one after the other use the lead up.
+TEST(Pacing, ALeadLetsALongStepUseWhatTheStepsBeforeItLeft) {
+  const int64_t ms = 1000000;
+  StepSchedule strict;
+  strict.start_ns = 10 * ms;
+  strict.period_ns = ms;
+  StepSchedule led = strict;
+  led.lead = 1;
+  for (int64_t k : {int64_t{0}, int64_t{7}}) {
+    EXPECT_EQ(strict.DeadlineNs(k), led.DeadlineNs(k));
+    EXPECT_EQ(strict.ReleaseNs(k), 10 * ms + k * ms);
+    EXPECT_EQ(led.ReleaseNs(k), strict.ReleaseNs(k) - ms);
+  }
+  // budget 0.8: a step begun on time has 0.8 ms; 0.3 ms late, 0.5 ms; begun a slot
+  // early (the lead), still 0.8 ms, not 1.8; past its budget's end, 1 ns (one sweep)
+  EXPECT_NEAR(strict.BudgetS(3, strict.ReleaseNs(3), 0.8), 0.8e-3, 1e-12);
+  EXPECT_NEAR(strict.BudgetS(3, strict.ReleaseNs(3) + ms * 3 / 10, 0.8), 0.5e-3, 1e-12);
+  EXPECT_NEAR(led.BudgetS(3, led.ReleaseNs(3), 0.8), 0.8e-3, 1e-12);
+  EXPECT_NEAR(led.BudgetS(3, led.ReleaseNs(3) + ms * 13 / 10, 0.8), 0.5e-3, 1e-12);
+  EXPECT_EQ(strict.BudgetS(3, strict.DeadlineNs(3), 0.8), 1e-9);
+  // woke late: too late to hold the whole budget (0.2 ms of slack in the slot, plus the lead)
+  EXPECT_EQ(strict.LatestBeginNs(3, 0.8), strict.ReleaseNs(3) + ms / 5);
+  EXPECT_EQ(led.LatestBeginNs(3, 0.8), led.ReleaseNs(3) + ms + ms / 5);
+  EXPECT_EQ(strict.LatestBeginNs(3, 0.0), strict.ReleaseNs(3));  // no budget: any late start
+  // step times in ms: short, one of 1.5 ms, short again, then three of 1.2 ms in a row
+  const std::vector<double> work = {0.3, 0.3, 1.5, 0.3, 0.3, 0.3, 1.2, 1.2, 1.2, 0.3, 0.3, 0.3, 0.3, 0.3};
+  const auto missed = [&](const StepSchedule& s, std::vector<int64_t>* which) {
+    int64_t end = 0;
+    for (size_t k = 0; k < work.size(); ++k) {
+      const int64_t begin = std::max(end, s.ReleaseNs(static_cast<int64_t>(k)));
+      end = begin + static_cast<int64_t>(work[k] * static_cast<double>(ms));
+      if (end > s.DeadlineNs(static_cast<int64_t>(k))) which->push_back(static_cast<int64_t>(k));
+    }
+  };
+  std::vector<int64_t> strict_missed, led_missed;
+  missed(strict, &strict_missed);
+  missed(led, &led_missed);
+  EXPECT_EQ(strict_missed, (std::vector<int64_t>{2, 6, 7, 8})) << "each long step misses its own deadline";
+  // with the lead: the 1.5 ms step ends 0.5 ms before its deadline; each 1.2 ms step
+  // begins 0.2 ms further past its release than the one before (0.2, 0.4, 0.6 ms of the
+  // one-timestep lead used up): all on time
+  EXPECT_TRUE(led_missed.empty()) << led_missed.size() << " missed, the first " << led_missed.front();
 }
 
 }  // namespace
