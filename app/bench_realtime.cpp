@@ -37,6 +37,8 @@
 #include <utility>
 #include <vector>
 
+#include <unistd.h>
+
 #include "app/bench.h"
 #include "app/pacing.h"
 #include "app/paths.h"
@@ -56,6 +58,35 @@ double LoadAverage() {
     std::fclose(f);
   }
   return l;
+}
+
+// Time the hypervisor ran something else while this core's virtual CPU was ready
+// (/proc/stat's steal column, in clock ticks of 10 ms on most kernels: a coarse count,
+// but one that shows the machine, not the loop, held the loop off): ms, or -1 when the
+// kernel does not say. `cpu` -1: all cores together.
+double StealMs(int cpu) {
+  FILE* f = std::fopen("/proc/stat", "r");
+  if (!f) return -1.0;
+  char line[512];
+  const std::string want = cpu < 0 ? "cpu " : "cpu" + std::to_string(cpu) + " ";
+  double ms = -1.0;
+  while (std::fgets(line, sizeof line, f)) {
+    if (std::strncmp(line, want.c_str(), want.size()) != 0) continue;
+    unsigned long long v[8] = {};
+    if (std::sscanf(line + want.size(), "%llu %llu %llu %llu %llu %llu %llu %llu", &v[0], &v[1], &v[2], &v[3], &v[4],
+                    &v[5], &v[6], &v[7]) == 8) {
+      const long hz = sysconf(_SC_CLK_TCK);
+      if (hz > 0) ms = 1e3 * static_cast<double>(v[7]) / static_cast<double>(hz);
+    }
+    break;
+  }
+  std::fclose(f);
+  return ms;
+}
+
+double StealSince(double before, int cpu) {
+  const double now = StealMs(cpu);
+  return before < 0.0 || now < 0.0 ? -1.0 : now - before;
 }
 
 double Percentile(std::vector<double> v, double p) {
@@ -109,6 +140,7 @@ struct RunResult {
                                 ///< its whole budget (StepSchedule::LatestBeginNs)
   int64_t missed_carried = 0;   ///< catching up: the previous step was late already
   double load_start = 0, load_end = 0;  ///< the machine's 1-minute load average before and after
+  double steal_ms = -1.0;       ///< the hypervisor's steal time on the loop's core over the run (-1: unknown)
   double worst_late_ms = 0.0;   ///< largest (end - deadline)
   double step_median_ms = 0, step_p99_ms = 0, step_max_ms = 0;  ///< World::Step
   double loop_median_ms = 0, loop_p99_ms = 0;                   ///< datagrams + step + snapshot
@@ -164,6 +196,7 @@ bool RunOnce(const std::string& scene, const Session& session, double seconds, b
   schedule.period_ns = period;
   schedule.lead = lead;
   out->load_start = LoadAverage();
+  const double steal_start = StealMs(po.cpu);
   bool was_late = false;
   for (int64_t k = 0; k < steps; ++k) {
     WaitUntilNs(schedule.ReleaseNs(k), po.spin_ns);
@@ -242,6 +275,7 @@ bool RunOnce(const std::string& scene, const Session& session, double seconds, b
     }
   }
   out->wall_s = 1e-9 * static_cast<double>(MonotonicNs() - schedule.ReleaseNs(0));
+  out->steal_ms = StealSince(steal_start, po.cpu);
   LeaveRealtime();
   out->load_end = LoadAverage();
   out->steps = steps;
@@ -265,6 +299,7 @@ bool RunOnce(const std::string& scene, const Session& session, double seconds, b
 struct EmptyResult {
   int64_t steps = 0, missed = 0, late_runs = 0;
   double worst_late_ms = 0.0, wake_p99_ms = 0.0, wake_max_ms = 0.0;
+  double steal_ms = -1.0;
 };
 
 EmptyResult RunEmpty(double seconds, double dt, const PacingOptions& po, int lead) {
@@ -277,6 +312,7 @@ EmptyResult RunEmpty(double seconds, double dt, const PacingOptions& po, int lea
   schedule.period_ns = static_cast<int64_t>(std::llround(dt * 1e9));
   schedule.start_ns = MonotonicNs() + (2 + lead) * schedule.period_ns;
   schedule.lead = lead;
+  const double steal_start = StealMs(po.cpu);
   bool was_late = false;
   for (int64_t k = 0; k < r.steps; ++k) {
     WaitUntilNs(schedule.ReleaseNs(k), po.spin_ns);
@@ -290,6 +326,7 @@ EmptyResult RunEmpty(double seconds, double dt, const PacingOptions& po, int lea
       r.worst_late_ms = std::max(r.worst_late_ms, 1e-6 * static_cast<double>(late));
     }
   }
+  r.steal_ms = StealSince(steal_start, po.cpu);
   LeaveRealtime();
   r.wake_p99_ms = Percentile(wake_ms, 0.99);
   r.wake_max_ms = wake_ms.empty() ? 0.0 : *std::max_element(wake_ms.begin(), wake_ms.end());
@@ -337,14 +374,14 @@ void PrintJson(const RunResult& r, double seconds) {
               "\"frames_dropped\":%d,\"max_contacts\":%d,\"unconverged_steps\":%lld,\"budget_stops\":%lld,"
               "\"skipped_solves\":%lld,\"residual_max\":%.3g,\"lifts\":%d,\"datagrams\":%zu,"
               "\"wake_ms_p99\":%.4f,\"wake_ms_max\":%.4f,\"pacing\":\"%s\",\"pacing_refused\":\"%s\","
-              "\"load_average_start\":%.2f,\"load_average_end\":%.2f}\n",
+              "\"load_average_start\":%.2f,\"load_average_end\":%.2f,\"steal_ms\":%.0f}\n",
               r.render ? "true" : "false", seconds, static_cast<long long>(r.steps), static_cast<long long>(r.missed),
               static_cast<long long>(r.late_runs), static_cast<long long>(r.overlong), static_cast<long long>(r.missed_own),
               static_cast<long long>(r.missed_woke_late), static_cast<long long>(r.missed_carried), r.worst_late_ms,
               r.step_median_ms, r.step_p99_ms, r.step_max_ms, r.loop_median_ms, r.loop_p99_ms,
               r.wall_s, r.frames_drawn, r.frames_taken, r.frames_dropped, r.max_contacts, static_cast<long long>(r.unconverged),
               static_cast<long long>(r.budget_stops), static_cast<long long>(r.skipped_solves), r.residual_max, r.lifts, r.datagrams, r.wake_p99_ms,
-              r.wake_max_ms, r.pacing.c_str(), r.refused.c_str(), r.load_start, r.load_end);
+              r.wake_max_ms, r.pacing.c_str(), r.refused.c_str(), r.load_start, r.load_end, r.steal_ms);
 }
 
 }  // namespace
@@ -388,9 +425,11 @@ int RunBenchRealtime(const BenchOptions& opt) {
     PrintJson(without, seconds);
     PrintJson(with, seconds);
     std::printf("{\"bench\":\"realtime\",\"empty_loop\":true,\"seconds\":%g,\"steps\":%lld,\"missed_deadlines\":%lld,"
-                "\"late_runs\":%lld,\"worst_lateness_ms\":%.4f,\"wake_ms_p99\":%.4f,\"wake_ms_max\":%.4f}\n",
+                "\"late_runs\":%lld,\"worst_lateness_ms\":%.4f,\"wake_ms_p99\":%.4f,\"wake_ms_max\":%.4f,"
+                "\"steal_ms\":%.0f}\n",
                 seconds, static_cast<long long>(empty.steps), static_cast<long long>(empty.missed),
-                static_cast<long long>(empty.late_runs), empty.worst_late_ms, empty.wake_p99_ms, empty.wake_max_ms);
+                static_cast<long long>(empty.late_runs), empty.worst_late_ms, empty.wake_p99_ms, empty.wake_max_ms,
+                empty.steal_ms);
     std::printf("{\"bench\":\"realtime\",\"seconds\":%g,\"steps\":%lld,\"missed_deadlines\":%lld,"
                 "\"late_runs\":%lld,\"overlong_steps\":%lld,\"missed_own_work\":%lld,\"missed_woke_late\":%lld,"
                 "\"missed_carried\":%lld,\"no_render_missed_own_work\":%lld,"
@@ -425,8 +464,8 @@ int RunBenchRealtime(const BenchOptions& opt) {
               empty.wake_max_ms);
   std::printf("  (empty loop: the same pacing with no step, the machine's own misses)\n");
   for (const RunResult* r : {&with, &without})
-    std::printf("  %s: missed deadlines by cause: %lld the step's own work, %lld began late (the machine woke the "
-                "loop past the budget's slack), %lld catching up after a late step\n",
+    std::printf("  %s: missed deadlines by cause: %lld the step's own work, %lld began too late for their whole budget (the machine "
+                "woke the loop late), %lld catching up after a late step\n",
                 r->render ? "with rendering" : "without rendering", static_cast<long long>(r->missed_own),
                 static_cast<long long>(r->missed_woke_late), static_cast<long long>(r->missed_carried));
   std::printf("  simulation thread: %s%s%s; spin %.0f us before each wake-up; a step may begin %d timestep%s "
@@ -434,14 +473,16 @@ int RunBenchRealtime(const BenchOptions& opt) {
               with.pacing.c_str(), with.refused.empty() ? "" : "; ", with.refused.c_str(), opt.spin_us, opt.lead_steps,
               opt.lead_steps == 1 ? "" : "s");
   for (const RunResult* r : {&with, &without})
-    std::printf("  %s: %lld steps unconverged, %lld of them stopped by the step budget (%g of a timestep into "
-                "the slot%s), %lld of those with no time left for a sweep (the last forces kept); largest solver "
+    std::printf("  %s: %lld steps unconverged, %lld of them stopped by the step budget (%g of a timestep%s), %lld of those with no time left for a sweep (the last forces kept); largest solver "
                 "error %.3g (of the steps that swept)\n",
                 r->render ? "with rendering" : "without rendering", static_cast<long long>(r->unconverged),
                 static_cast<long long>(r->budget_stops), opt.step_budget, opt.step_budget > 0 ? "" : ": no budget",
                 static_cast<long long>(r->skipped_solves), r->residual_max);
   std::printf("  load average %.2f -> %.2f (rendering run), %.2f -> %.2f (without)\n", with.load_start, with.load_end,
               without.load_start, without.load_end);
+  std::printf("  the hypervisor's steal time on the loop's core (/proc/stat, 10 ms ticks; -1: not said): %.0f ms "
+              "(rendering run), %.0f ms (without), %.0f ms (empty loop)\n",
+              with.steal_ms, without.steal_ms, empty.steal_ms);
   std::printf("  the box was lifted in %d of %d grasp cycles; target (no missed deadline, step median <= 1 ms): %s\n",
               with.lifts, static_cast<int>(std::ceil(seconds / tracking::SyntheticHand().duration_s)),
               with.missed == 0 && with.step_median_ms <= 1.0 ? "met" : "NOT met");

@@ -77,6 +77,11 @@ TEST(BenchRealtime, TwoSecondsGiveConsistentCounts) {
   EXPECT_EQ(JsonField(last, "budget_stops"), JsonField(with, "budget_stops"));
   EXPECT_EQ(JsonField(last, "step_budget"), 0.8);
   EXPECT_EQ(JsonField(last, "lead_steps"), 1);  // live's default (app/pacing.h StepSchedule)
+  // the hypervisor's steal time on the loop's core, read from /proc/stat (a count, never negative there)
+  if (FILE* stat = std::fopen("/proc/stat", "r")) {
+    std::fclose(stat);
+    for (const std::string* l : {&without, &with, &empty}) EXPECT_GE(JsonField(*l, "steal_ms"), 0) << *l;
+  }
   // the grasp happens in both; the replay is deterministic in simulated time unless the
   // step budget (a wall-clock limit) cut a solve short in either run
   EXPECT_GT(JsonField(with, "max_contacts"), 0);
