@@ -116,7 +116,8 @@ int Live(const LiveCmd& c) {
               "\"silences\":%d,\"recoveries\":%d,\"rate_changes\":%d,\"garbage_bursts\":%d,\"floods\":%d,"
               "\"rejected_bursts\":%d,\"tracker_state\":\"%s\",\"published\":%llu,\"lcm_ok\":%s,"
               "\"rendering\":%s,\"frames_drawn\":%lld,\"frames_dropped\":%lld,\"pacing\":\"%s\","
-              "\"unconverged_steps\":%lld,\"budget_stops\":%lld,\"skipped_solves\":%lld,\"residual_max\":%.3g}\n",
+              "\"unconverged_steps\":%lld,\"budget_stops\":%lld,\"skipped_solves\":%lld,\"residual_max\":%.3g,"
+              "\"lead_steps\":%d}\n",
               st.wall_s, static_cast<long long>(st.steps), st.sim_rate_hz(), 1.0 / w.params.dt,
               static_cast<long long>(st.overruns), static_cast<long long>(st.skipped_steps), st.step_median_ms,
               st.step_max_ms, static_cast<unsigned long long>(st.datagrams), st.tracker_hz,
@@ -126,7 +127,7 @@ int Live(const LiveCmd& c) {
               st.lcm_ok ? "true" : "false", rendering ? "true" : "false", static_cast<long long>(st.frames_drawn),
               static_cast<long long>(st.frames_dropped), st.pacing.Describe().c_str(),
               static_cast<long long>(st.unconverged_steps), static_cast<long long>(st.budget_stops),
-              static_cast<long long>(st.skipped_solves), st.residual_max);
+              static_cast<long long>(st.skipped_solves), st.residual_max, o.lead_steps);
   return kExitOk;
 }
 
