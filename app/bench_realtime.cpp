@@ -14,8 +14,8 @@
 // simulated second into a null sink. Then the same without rendering, then an
 // empty loop paced the same way (the machine's own misses). Reported per run:
 // missed deadlines (steps that ended after their deadline), how many runs of
-// consecutive late steps they make, the steps late by their own work (loop time
-// over 1 ms), the worst lateness, the wake-up lateness, the step's median, p99
+// consecutive late steps they make, the overlong steps (loop time over 1 ms) and the
+// misses by cause (the step's own work, a late wake-up, catching up), the worst lateness, the wake-up lateness, the step's median, p99
 // and max, frames drawn and dropped, the machine's load average. A late step is
 // not skipped: the next starts at once (the replay catches up), so a missed
 // deadline delays but never drops simulated time. As in live, each step has F
@@ -133,7 +133,8 @@ struct RunResult {
   int64_t steps = 0;
   int64_t missed = 0;           ///< steps that ended after their deadline
   int64_t late_runs = 0;        ///< runs of consecutive late steps (one delay makes a run while the replay catches up)
-  int64_t overlong = 0;         ///< steps whose own loop time exceeded the period (late by their own work)
+  int64_t overlong = 0;         ///< steps whose own loop time exceeded the period (late by their own work without
+                                ///< a lead; with one, only once the lead is used up)
   // each missed deadline by its cause (the three add up to `missed`):
   int64_t missed_own = 0;       ///< the step's own work: it began in time for its whole budget and still ended late
   int64_t missed_woke_late = 0; ///< the machine: the previous step was on time, but this one began too late for
