@@ -359,8 +359,10 @@ bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::str
   stats->health = health.counts();
   stats->tracker_state = health.state();
   // the run lasts until the simulation thread's last step: a step under way at the stop
-  // ends after it, and a loop running behind gives up the slots up to that step's end
-  stats->wall_s = 1e-9 * static_cast<double>(std::max(stop_ns, sim_end_ns.load()) - start_ns);
+  // ends after it, and a loop running behind gives up the slots up to that step's end;
+  // from the first step's release (lead_steps timesteps before its slot)
+  stats->wall_s =
+      1e-9 * static_cast<double>(std::max(stop_ns, sim_end_ns.load()) - (start_ns - opt.lead_steps * period_ns));
   stats->steps = steps.load();
   stats->overruns = overruns.load();
   stats->skipped_steps = skipped.load();
