@@ -19,6 +19,7 @@ struct BenchOptions {
   int rt_priority = 50;  ///< bench realtime: SCHED_FIFO priority of the loop (0: normal scheduling)
   double spin_us = 0.0;  ///< bench realtime: busy-wait before each deadline
   int cpu = 0;           ///< bench realtime: the simulation's core, the render thread on the others (-1: no pinning)
+  bool cpu_given = false;  ///< bench realtime: --cpu given (else a core no other graspsim loop runs on)
   bool skip_late_solves = false;  ///< bench realtime: WorldParams::budget_may_skip_solve
   int lead_steps = 1;  ///< bench realtime: a step may begin this many timesteps before its slot (StepSchedule)
   double step_budget = 0.8;  ///< bench realtime: a step ends this fraction of the timestep into its slot, the solver stopping early (0: no limit)

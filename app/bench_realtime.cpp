@@ -118,7 +118,7 @@ Session MakeSession(double seconds) {
 // one step of a run, for --steps-csv
 struct StepTrace {
   int64_t k = 0;
-  float wake_ms = 0, loop_ms = 0, late_ms = 0;
+  double wake_ms = 0, loop_ms = 0, late_ms = 0;  // double: a slow (sanitized) run falls seconds behind, where a float's grain passes 0.1 us
   float free_motion = 0, traverse = 0, interpenetration = 0, refit = 0, fill_w_rigid = 0, fill_w_deform = 0,
         solve = 0, constrained_motion = 0, total = 0;  // ms
   int contacts = 0, iterations = 0, cache_hits = 0, cache_builds = 0, cache_refills = 0, slice_tests = 0;
@@ -241,9 +241,9 @@ bool RunOnce(const std::string& scene, const Session& session, double seconds, b
       const StepProfile& p = w.profile;
       StepTrace t;
       t.k = k;
-      t.wake_ms = static_cast<float>(wake_ms.back());
-      t.loop_ms = static_cast<float>(1e-6 * static_cast<double>(end - begin));
-      t.late_ms = static_cast<float>(1e-6 * static_cast<double>(late));
+      t.wake_ms = wake_ms.back();
+      t.loop_ms = 1e-6 * static_cast<double>(end - begin);
+      t.late_ms = 1e-6 * static_cast<double>(late);
       t.free_motion = static_cast<float>(1e3 * p.free_motion);
       t.traverse = static_cast<float>(1e3 * p.traverse);
       t.interpenetration = static_cast<float>(1e3 * p.interpenetration);
@@ -346,7 +346,7 @@ bool WriteTrace(FILE* f, const std::string& path, const RunResult& with, const R
                   "cache_refills,slice_tests,solve_skipped,residual\n");
   for (const RunResult* r : {&with, &without}) {
     for (const StepTrace& t : r->trace) {
-      std::fprintf(f, "%d,%lld,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%d,%d,%d,%d,%d,%d,",
+      std::fprintf(f, "%d,%lld,%.6f,%.6f,%.6f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%d,%d,%d,%d,%d,%d,",
                    r->render ? 1 : 0, static_cast<long long>(t.k), t.wake_ms, t.loop_ms, t.late_ms, t.free_motion,
                    t.traverse, t.interpenetration, t.refit, t.fill_w_rigid, t.fill_w_deform, t.solve,
                    t.constrained_motion, t.total, t.contacts, t.iterations, t.cache_hits, t.cache_builds,
@@ -400,7 +400,9 @@ int RunBenchRealtime(const BenchOptions& opt) {
   std::string error;
   PacingOptions po;
   po.priority = opt.rt_priority;
-  po.cpu = opt.cpu;
+  std::string moved;
+  po.cpu = opt.cpu_given ? opt.cpu : ChooseCore(opt.cpu, &moved);
+  if (!moved.empty()) std::fprintf(stderr, "bench realtime: %s\n", moved.c_str());
   po.spin_ns = static_cast<int64_t>(std::llround(opt.spin_us * 1e3));
   const bool trace = !opt.steps_csv.empty();
   FILE* trace_file = nullptr;

@@ -56,9 +56,12 @@ void AddBenchCommand(CLI::App& app, int* exit_code) {
                        "steps before it left over (deadlines unchanged: step k ends by (k+1) dt; default 1, as live; "
                        "0: each step has its slot only)")
       ->check(CLI::Range(0, 10));
-  realtime->add_option("--cpu", opt->cpu,
-                       "the simulation loop's core; rendering runs on the others (-1: no pinning)")
-      ->check(CLI::Range(-1, 1023));
+  realtime
+      ->add_option("--cpu", opt->cpu,
+                   "the simulation loop's core; rendering runs on the others (-1: no pinning; without --cpu, the "
+                   "lowest core no other graspsim loop runs on, from 0)")
+      ->check(CLI::Range(-1, 1023))
+      ->each([opt](const std::string&) { opt->cpu_given = true; });
   realtime->add_option("--steps-csv", opt->steps_csv,
                        "write one line per step of both runs (rendering or not, loop time, lateness, stage times, contacts, "
                        "sweeps, cache rebuilds) to this CSV file, to see what made a step late");

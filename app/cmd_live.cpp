@@ -25,6 +25,7 @@ struct LiveCmd {
   RenderOptions render;  ///< --frames, --video, ... (docs/render.md)
   int rt_priority = 50;  ///< SCHED_FIFO priority of the simulation thread (0: normal)
   int cpu = 0;           ///< the simulation thread's core (-1: anywhere)
+  bool cpu_given = false;  ///< --cpu on the command line: that core, even when another loop has it
   double step_budget = 0.8;  ///< a step has this fraction of the timestep, ending at most as far into its slot (0: no limit)
   int lead_steps = 1;        ///< a step may begin this many timesteps before its slot
   bool skip_late_solves = false;
@@ -49,7 +50,8 @@ int Live(const LiveCmd& c) {
   o.lcm_url = c.lcm_url.empty() ? tc.lcm_url : c.lcm_url;
   o.quiet = c.quiet;
   o.pacing.priority = c.rt_priority;
-  o.pacing.cpu = c.cpu;
+  std::string moved;
+  o.pacing.cpu = c.cpu_given ? c.cpu : ChooseCore(c.cpu, &moved);
   o.step_budget = c.step_budget;
   o.lead_steps = c.lead_steps;
   o.skip_late_solves = c.skip_late_solves;
@@ -63,11 +65,12 @@ int Live(const LiveCmd& c) {
   std::printf("live: scene %s, %zu bodies, %zu tracked fingertips; %.0f Hz simulation; UDP port %d%s%s; %s (Ctrl-C stops)\n",
               sim->scene().name.c_str(), w.bodies.size(), tc.fingertips.size(), 1.0 / w.params.dt, o.udp.port,
               o.udp.multicast_group.empty() ? "" : " group ", o.udp.multicast_group.c_str(), lcm);
+  if (!moved.empty()) std::printf("live: %s\n", moved.c_str());
   std::fflush(stdout);
   // a render thread fed from a fixed pool of snapshots: never waited for
   FrameRecorder recorder;
   RenderOptions ro = c.render;
-  ro.avoid_cpu = c.cpu;  // rendering on the other core(s)
+  ro.avoid_cpu = o.pacing.cpu;  // rendering on the other core(s)
   if (!recorder.Start(ro, sim->scene(), &error, ERecordMode::Live)) {
     std::fprintf(stderr, "live: %s\n", error.c_str());
     return kExitUsage;
@@ -165,11 +168,16 @@ void AddLiveCommand(CLI::App& app, int* exit_code) {
                   "slot only)")
       ->check(CLI::Range(0, 10))
       ->capture_default_str();
-  cmd->add_option("--cpu", c->cpu, "the simulation thread's core; rendering runs on the others (-1: anywhere)")
-      ->check(CLI::Range(-1, 1023))
-      ->capture_default_str();
+  CLI::Option* cpu = cmd->add_option("--cpu", c->cpu,
+                                     "the simulation thread's core; rendering runs on the others (-1: anywhere; "
+                                     "without --cpu, the lowest core no other graspsim loop runs on, from 0)")
+                         ->check(CLI::Range(-1, 1023))
+                         ->capture_default_str();
   AddRenderOptions(cmd, &c->render);
-  cmd->callback([c, exit_code]() { *exit_code = Live(*c); });
+  cmd->callback([c, cpu, exit_code]() {
+    c->cpu_given = cpu->count() > 0;
+    *exit_code = Live(*c);
+  });
 }
 
 }  // namespace gs::app

@@ -78,6 +78,21 @@ std::string ClaimCore(int cpu, const std::string& dir) {
          ": the two hold each other off it and fall behind; give one another core (--cpu)";
 }
 
+int ChooseCore(int preferred, std::string* note, const std::string& dir) {
+  note->clear();
+  const long cpus = sysconf(_SC_NPROCESSORS_ONLN);
+  if (preferred < 0 || cpus < 2 || preferred >= cpus) return preferred;
+  const std::string held = ClaimCore(preferred, dir);
+  if (held.empty()) return preferred;
+  for (int c = 0; c < cpus && c < CPU_SETSIZE; ++c) {
+    if (c == preferred || !ClaimCore(c, dir).empty()) continue;
+    // "core 0 already runs another graspsim simulation loop (pid N)", without the advice
+    *note = held.substr(0, held.find(':')) + ": this one runs on core " + std::to_string(c);
+    return c;
+  }
+  return preferred;
+}
+
 PacingGrant LockMemory([[maybe_unused]] const PacingOptions& opt) {
   PacingGrant g;
 #if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)

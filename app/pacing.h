@@ -60,6 +60,15 @@ PacingGrant EnterRealtime(const PacingOptions& opt, const PacingGrant* locked = 
 /// `refused`; the loop runs anyway.
 std::string ClaimCore(int cpu, const std::string& dir = "/tmp");
 
+/// The core for a simulation loop whose core the user did not name (no --cpu):
+/// `preferred` when no other graspsim loop has claimed it, else the lowest core that
+/// none has, claimed here for this process, with `note` saying which core was taken by
+/// whom and where this loop goes instead. When every core is claimed, or `preferred`
+/// is -1, or the machine has one core: `preferred` (EnterRealtime then says who holds
+/// it). Two loops started side by side (a live session and a benchmark, tests run in
+/// parallel) so get a core each instead of holding each other off one.
+int ChooseCore(int preferred, std::string* note, const std::string& dir = "/tmp");
+
 /// Back to normal scheduling for the calling thread (memory stays locked until exit).
 void LeaveRealtime();
 

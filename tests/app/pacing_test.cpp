@@ -125,6 +125,77 @@ TEST(Pacing, ASecondProcessOnAClaimedCoreIsToldWhoHasIt) {
   rmdir(dir.c_str());
 }
 
+// A child process holds the claims on `cores` until told to go (a loop running elsewhere).
+class ClaimHolder {
+ public:
+  ClaimHolder(const std::vector<int>& cores, const std::string& dir) {
+    if (pipe(claimed_) != 0 || pipe(release_) != 0) return;
+    pid_ = fork();
+    if (pid_ == 0) {
+      bool ok = true;
+      for (int c : cores) ok = ClaimCore(c, dir).empty() && ok;
+      char x = ok ? 'y' : 'n';
+      (void)!write(claimed_[1], &x, 1);
+      (void)!read(release_[0], &x, 1);
+      _exit(0);
+    }
+    char x = 0;
+    ok_ = pid_ > 0 && read(claimed_[0], &x, 1) == 1 && x == 'y';
+  }
+  ~ClaimHolder() {
+    char x = 0;
+    (void)!write(release_[1], &x, 1);
+    if (pid_ > 0) waitpid(pid_, nullptr, 0);
+    for (int fd : {claimed_[0], claimed_[1], release_[0], release_[1]}) close(fd);
+  }
+  bool ok() const { return ok_; }
+  pid_t pid() const { return pid_; }
+
+ private:
+  int claimed_[2] = {-1, -1}, release_[2] = {-1, -1};
+  pid_t pid_ = -1;
+  bool ok_ = false;
+};
+
+// without --cpu, a loop whose core another graspsim loop holds goes to a free one, and says so;
+// with every core held it stays where it was asked (EnterRealtime then names the holder)
+TEST(Pacing, AnUnnamedCoreThatIsTakenMovesToAFreeOne) {
+  const int cpus = static_cast<int>(sysconf(_SC_NPROCESSORS_ONLN));
+  if (cpus < 2) GTEST_SKIP() << "one core: nothing is pinned, no core to move to";
+  char dir_template[] = "/tmp/graspsim_choose_XXXXXX";
+  ASSERT_NE(mkdtemp(dir_template), nullptr);
+  const std::string dir = dir_template;
+  std::string note = "stale";
+  {
+    // every core held by another loop: the asked core, nothing moved
+    std::vector<int> all;
+    for (int c = 0; c < cpus; ++c) all.push_back(c);
+    ClaimHolder others(all, dir);
+    ASSERT_TRUE(others.ok());
+    EXPECT_EQ(ChooseCore(0, &note, dir), 0);
+    EXPECT_EQ(note, "");
+  }
+  {
+    ClaimHolder other({0}, dir);
+    ASSERT_TRUE(other.ok());
+    EXPECT_EQ(ChooseCore(0, &note, dir), 1);
+    EXPECT_EQ(note, "core 0 already runs another graspsim simulation loop (pid " + std::to_string(other.pid()) +
+                        "): this one runs on core 1");
+    EXPECT_TRUE(ClaimCore(1, dir).empty()) << "the core it moved to is this process's now";
+    note = "stale";
+    EXPECT_EQ(ChooseCore(-1, &note, dir), -1) << "no pinning asked, none chosen";
+    EXPECT_EQ(note, "");
+  }
+  // a core that is free, or this process's own, stays the one asked for, with nothing said
+  note = "stale";
+  EXPECT_EQ(ChooseCore(0, &note, dir), 0);
+  EXPECT_EQ(note, "");
+  EXPECT_EQ(ChooseCore(1, &note, dir), 1);
+  EXPECT_EQ(note, "");
+  for (int c = 0; c < cpus; ++c) std::remove((dir + "/graspsim-core-" + std::to_string(c) + ".lock").c_str());
+  rmdir(dir.c_str());
+}
+
 TEST(Pacing, WaitEndsAtItsDeadlineAndReturnsAtOnceWhenItHasPassed) {
   for (int64_t spin : {int64_t{0}, int64_t{200000}}) {
     const int64_t deadline = MonotonicNs() + 2000000;  // 2 ms
