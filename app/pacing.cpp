@@ -19,6 +19,7 @@
 #include <cstring>
 #include <map>
 #include <mutex>
+#include <vector>
 
 #if defined(__x86_64__) || defined(__i386__)
 #include <immintrin.h>
@@ -50,11 +51,33 @@ void Append(std::string* to, const std::string& what) {
 
 }  // namespace
 
+namespace {
+
+std::mutex claims_mu;
+std::map<std::string, int> claims_held;  // lock file -> its descriptor, open until exit
+
+std::string ClaimPath(int cpu, const std::string& dir) { return dir + "/graspsim-core-" + std::to_string(cpu) + ".lock"; }
+
+// whether another process holds the claim on `cpu` (a probe: the lock is let go at once)
+bool ClaimedElsewhere(int cpu, const std::string& dir) {
+  const std::string path = ClaimPath(cpu, dir);
+  {
+    std::lock_guard<std::mutex> lock(claims_mu);
+    if (claims_held.count(path)) return false;
+  }
+  const int fd = open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return false;  // never claimed (or unreadable: no check, as in ClaimCore)
+  const bool free = flock(fd, LOCK_EX | LOCK_NB) == 0;
+  close(fd);  // lets the probe's lock go
+  return !free;
+}
+
+}  // namespace
+
 std::string ClaimCore(int cpu, const std::string& dir) {
-  static std::mutex mu;
-  static std::map<std::string, int> held;  // lock file -> its descriptor, open until exit
-  const std::string path = dir + "/graspsim-core-" + std::to_string(cpu) + ".lock";
-  std::lock_guard<std::mutex> lock(mu);
+  auto& held = claims_held;
+  const std::string path = ClaimPath(cpu, dir);
+  std::lock_guard<std::mutex> lock(claims_mu);
   if (held.count(path)) return "";
   // any user may lock it (flock needs only a descriptor): created readable and writable by all
   int fd = open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0666);
@@ -78,16 +101,26 @@ std::string ClaimCore(int cpu, const std::string& dir) {
          ": the two hold each other off it and fall behind; give one another core (--cpu)";
 }
 
-int ChooseCore(int preferred, std::string* note, const std::string& dir) {
+int ChooseCore(int preferred, std::string* note, const std::string& dir, int cpus) {
   note->clear();
-  const long cpus = sysconf(_SC_NPROCESSORS_ONLN);
-  if (preferred < 0 || cpus < 2 || preferred >= cpus) return preferred;
-  const std::string held = ClaimCore(preferred, dir);
-  if (held.empty()) return preferred;
-  for (int c = 0; c < cpus && c < CPU_SETSIZE; ++c) {
-    if (c == preferred || !ClaimCore(c, dir).empty()) continue;
-    // "core 0 already runs another graspsim simulation loop (pid N)", without the advice
-    *note = held.substr(0, held.find(':')) + ": this one runs on core " + std::to_string(c);
+  if (cpus <= 0) cpus = static_cast<int>(std::min<long>(sysconf(_SC_NPROCESSORS_ONLN), CPU_SETSIZE));
+  if (preferred < 0 || cpus < 2 || preferred >= cpus || !ClaimedElsewhere(preferred, dir)) return preferred;
+  std::vector<int> free;
+  for (int c = 0; c < cpus; ++c)
+    if (c != preferred && !ClaimedElsewhere(c, dir)) free.push_back(c);
+  const std::string held = ClaimCore(preferred, dir);  // who has it, in the words EnterRealtime would use
+  if (held.empty()) return preferred;  // its loop ended meanwhile: the core is this process's now
+  const std::string who = held.substr(0, held.find(':'));
+  if (free.size() < 2) {
+    // the last free core is left to the receiver, the renderer and the rest of the machine
+    *note = who + (free.empty() ? ": every core runs one" : ": the one other free core is left to the "
+                                                             "tracker's receiver and the rest of the machine") +
+            "; this one shares core " + std::to_string(preferred) + " (--cpu N picks one)";
+    return preferred;
+  }
+  for (int c : free) {
+    if (!ClaimCore(c, dir).empty()) continue;  // taken meanwhile
+    *note = who + ": this one runs on core " + std::to_string(c);
     return c;
   }
   return preferred;

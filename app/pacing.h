@@ -61,13 +61,15 @@ PacingGrant EnterRealtime(const PacingOptions& opt, const PacingGrant* locked = 
 std::string ClaimCore(int cpu, const std::string& dir = "/tmp");
 
 /// The core for a simulation loop whose core the user did not name (no --cpu):
-/// `preferred` when no other graspsim loop has claimed it, else the lowest core that
-/// none has, claimed here for this process, with `note` saying which core was taken by
-/// whom and where this loop goes instead. When every core is claimed, or `preferred`
-/// is -1, or the machine has one core: `preferred` (EnterRealtime then says who holds
-/// it). Two loops started side by side (a live session and a benchmark, tests run in
-/// parallel) so get a core each instead of holding each other off one.
-int ChooseCore(int preferred, std::string* note, const std::string& dir = "/tmp");
+/// `preferred` when no other graspsim loop has claimed it. Else, when at least two
+/// cores are free, the lowest of them, claimed here for this process, so that the two
+/// loops do not hold each other off one core while a core stays free for normal
+/// threads (the tracker's receiver, the renderer, the tracker's sender on the same
+/// machine). With fewer free cores (a second loop on a two-core machine), `preferred`:
+/// a real-time loop on the last free core would starve everything else. `note` says
+/// what happened whenever the preferred core was taken. `cpus` (0: the online count)
+/// is for tests. -1 or a one-core machine: `preferred`, nothing said.
+int ChooseCore(int preferred, std::string* note, const std::string& dir = "/tmp", int cpus = 0);
 
 /// Back to normal scheduling for the calling thread (memory stays locked until exit).
 void LeaveRealtime();

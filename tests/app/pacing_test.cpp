@@ -6,6 +6,8 @@
 #include <gtest/gtest.h>
 #include <pthread.h>
 #include <sched.h>
+#include <fcntl.h>
+#include <sys/file.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -157,42 +159,70 @@ class ClaimHolder {
   bool ok_ = false;
 };
 
-// without --cpu, a loop whose core another graspsim loop holds goes to a free one, and says so;
-// with every core held it stays where it was asked (EnterRealtime then names the holder)
-TEST(Pacing, AnUnnamedCoreThatIsTakenMovesToAFreeOne) {
-  const int cpus = static_cast<int>(sysconf(_SC_NPROCESSORS_ONLN));
-  if (cpus < 2) GTEST_SKIP() << "one core: nothing is pinned, no core to move to";
+// no process holds the claim file of `core` in `dir` (a lock taken and let go at once)
+bool LockFileFree(const std::string& dir, int core) {
+  const int fd = open((dir + "/graspsim-core-" + std::to_string(core) + ".lock").c_str(), O_RDONLY);
+  if (fd < 0) return true;
+  const bool free = flock(fd, LOCK_EX | LOCK_NB) == 0;
+  close(fd);
+  return free;
+}
+
+// without --cpu, a loop whose core another graspsim loop holds goes to a free one and says so,
+// as long as a core stays free for normal threads; else it stays where it was asked and says why.
+// The claims live in a directory of the test's own, and the core counts are given, so that the
+// case runs the same on any machine.
+TEST(Pacing, AnUnnamedCoreThatIsTakenMovesToAFreeOneWhileAnotherStaysFree) {
   char dir_template[] = "/tmp/graspsim_choose_XXXXXX";
   ASSERT_NE(mkdtemp(dir_template), nullptr);
   const std::string dir = dir_template;
   std::string note = "stale";
-  {
-    // every core held by another loop: the asked core, nothing moved
-    std::vector<int> all;
-    for (int c = 0; c < cpus; ++c) all.push_back(c);
-    ClaimHolder others(all, dir);
-    ASSERT_TRUE(others.ok());
-    EXPECT_EQ(ChooseCore(0, &note, dir), 0);
-    EXPECT_EQ(note, "");
-  }
-  {
-    ClaimHolder other({0}, dir);
-    ASSERT_TRUE(other.ok());
-    EXPECT_EQ(ChooseCore(0, &note, dir), 1);
-    EXPECT_EQ(note, "core 0 already runs another graspsim simulation loop (pid " + std::to_string(other.pid()) +
-                        "): this one runs on core 1");
-    EXPECT_TRUE(ClaimCore(1, dir).empty()) << "the core it moved to is this process's now";
-    note = "stale";
-    EXPECT_EQ(ChooseCore(-1, &note, dir), -1) << "no pinning asked, none chosen";
-    EXPECT_EQ(note, "");
-  }
-  // a core that is free, or this process's own, stays the one asked for, with nothing said
+  EXPECT_EQ(ChooseCore(0, &note, dir, 4), 0) << "a free core stays the one asked for";
+  EXPECT_EQ(note, "");
   note = "stale";
-  EXPECT_EQ(ChooseCore(0, &note, dir), 0);
+  EXPECT_EQ(ChooseCore(-1, &note, dir, 4), -1) << "no pinning asked, none chosen";
   EXPECT_EQ(note, "");
-  EXPECT_EQ(ChooseCore(1, &note, dir), 1);
+  {
+    ClaimHolder other({1}, dir);
+    ASSERT_TRUE(other.ok());
+    const std::string who = "core 1 already runs another graspsim simulation loop (pid " + std::to_string(other.pid()) + ")";
+    // two cores: the other one is the only free core, left to the receiver and the rest
+    EXPECT_EQ(ChooseCore(1, &note, dir, 2), 1);
+    EXPECT_EQ(note, who + ": the one other free core is left to the tracker's receiver and the rest of the machine; "
+                          "this one shares core 1 (--cpu N picks one)");
+    EXPECT_TRUE(LockFileFree(dir, 0)) << "nothing was claimed for a move that did not happen";
+    // four cores: three free; the lowest is taken and claimed
+    EXPECT_EQ(ChooseCore(1, &note, dir, 4), 0);
+    EXPECT_EQ(note, who + ": this one runs on core 0");
+    EXPECT_TRUE(ClaimCore(0, dir).empty()) << "the core it moved to is this process's now";
+  }
+  {
+    // three cores, two held by others, the third this process's own: nowhere to go
+    ClaimHolder others({1, 2}, dir);
+    ASSERT_TRUE(others.ok());
+    EXPECT_EQ(ChooseCore(2, &note, dir, 3), 2);
+    EXPECT_NE(note.find(": the one other free core is left to"), std::string::npos) << note;
+  }
+  {
+    // every core held by another loop (claims in a directory this process never claimed in)
+    char other_template[] = "/tmp/graspsim_choose_XXXXXX";
+    ASSERT_NE(mkdtemp(other_template), nullptr);
+    const std::string other_dir = other_template;
+    {
+      ClaimHolder all({0, 1, 2}, other_dir);
+      ASSERT_TRUE(all.ok());
+      EXPECT_EQ(ChooseCore(1, &note, other_dir, 3), 1);
+      EXPECT_NE(note.find("(pid " + std::to_string(all.pid()) + "): every core runs one; this one shares core 1"),
+                std::string::npos)
+          << note;
+    }
+    for (int c = 0; c < 3; ++c) std::remove((other_dir + "/graspsim-core-" + std::to_string(c) + ".lock").c_str());
+    rmdir(other_dir.c_str());
+  }
+  note = "stale";
+  EXPECT_EQ(ChooseCore(1, &note, dir, 4), 1) << "the claim ended with its process";
   EXPECT_EQ(note, "");
-  for (int c = 0; c < cpus; ++c) std::remove((dir + "/graspsim-core-" + std::to_string(c) + ".lock").c_str());
+  for (int c = 0; c < 4; ++c) std::remove((dir + "/graspsim-core-" + std::to_string(c) + ".lock").c_str());
   rmdir(dir.c_str());
 }
 
