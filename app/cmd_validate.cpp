@@ -33,8 +33,10 @@ void AddValidateCommand(CLI::App& app, int* exit_code) {
     for (const ValidationResult& r : results) {
       all &= r.pass;
       if (opt->json) {
-        std::printf("{\"name\":\"%s\",\"error\":%.6g,\"tolerance\":%.6g,\"unit\":\"%s\",\"pass\":%s}\n",
-                    r.name.c_str(), r.error, r.tolerance, r.unit.c_str(), r.pass ? "true" : "false");
+        std::string mode;
+        if (!r.contact_mode.empty()) mode = ",\"contact_mode\":\"" + r.contact_mode + "\"";
+        std::printf("{\"name\":\"%s\",\"error\":%.6g,\"tolerance\":%.6g,\"unit\":\"%s\",\"pass\":%s%s}\n",
+                    r.name.c_str(), r.error, r.tolerance, r.unit.c_str(), r.pass ? "true" : "false", mode.c_str());
       } else {
         std::printf("%-16s %-4s error %.3g %s (tolerance %.3g)  %s\n", r.name.c_str(), r.pass ? "PASS" : "FAIL",
                     r.error, r.unit.c_str(), r.tolerance, r.detail.c_str());

@@ -14,6 +14,7 @@ struct ValidationResult {
   bool pass = false;
   std::string unit;
   std::string detail;      ///< what was measured, in words
+  std::string contact_mode;  ///< "two-pass" or "one-pass" where the case depends on it, else empty
 };
 
 struct ValidationOptions {
