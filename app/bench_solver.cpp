@@ -1,18 +1,29 @@
-// `graspsim bench solver [--json] [--quick]`: our NSGS (with its extrapolation
-// along the drift, the default for explicit problems: core/nsgs.h) side by side with
-// Siconos Numerics' NSGS and PROX on the same FCLIB-style problems: random
-// rigid-body stacks of 50 to 2,000 contacts, the two real FCLIB samples that
-// ship in tests/data/fclib/, and the paper grasp's own contact problem at its
-// deepest. Each solver starts from zero forces and is timed to reach the
+// `graspsim bench solver [--json] [--quick]`: our solver (SolveFcProblem,
+// core/fc_problem.h) side by side with three Siconos Numerics solvers, NSGS,
+// NSN-AC (semi-smooth Newton on Alart-Curnier) and PROX, on the same problems:
+// random rigid-body stacks, the two real FCLIB samples of tests/data/fclib/, the
+// paper grasp's own contact problem, and generated families hard for
+// Gauss-Seidel (core/fc_families.h: one body gripped by many contacts, stacks
+// with mass ratios up to 1,000, piles of bodies with friction 0.3-1, near-
+// degenerate cones). Each solver starts from zero forces and must reach the
 // Siconos error 1e-6 (SOLVER-REFERENCE's measure, recomputed by us from the
-// returned forces). Siconos' NSGS stops on its own criterion, which is not
-// that error: when it stops early it is rerun with a tighter tolerance, and
-// the time of the first run that reaches 1e-6 counts. Medians of repeated runs.
-// Target: our time at most half of Siconos NSGS wherever NSGS solves, and
-// convergence where NSGS stalls.
+// returned forces).
+//
+// Per problem: every solver first runs once (Siconos in a child process, so an
+// assert inside it fails that solver, not the benchmark), which decides whether it
+// solves the problem, with which Siconos tolerance (their own stopping tests are
+// not our error: the tolerance is tightened until the forces reach 1e-6) and why
+// it stopped when it does not. That run also warms the caches. Then the solvers
+// that solved it are timed in interleaved rounds (ours, NSGS, NSN-AC, PROX, ours,
+// ...), the same number of rounds in --quick as in the full run (quick means fewer
+// and smaller problems); a solve shorter than 2 ms is repeated back to back within
+// its round so that each sample is at least 2 ms. The time is the median of the
+// rounds. The ratio is ours against the fastest Siconos solver that solved it.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
 #include <memory>
 #include <string>
 #include <vector>
@@ -21,6 +32,7 @@
 #include "app/paths.h"
 #include "app/scene_file.h"
 #include "app/siconos_ref.h"
+#include "core/fc_families.h"
 #include "core/world.h"
 #ifdef GRASPSIM_HAVE_FCLIB
 #include "app/fclib_io.h"
@@ -30,80 +42,152 @@ namespace gs::app {
 namespace {
 
 constexpr double kTarget = 1e-6;
+constexpr int kOurSweepCap = 20000;
+constexpr double kMinSampleS = 2e-3;  ///< a timed sample repeats short solves up to this
+constexpr int kMaxBatch = 100;
 
 struct Problem {
   std::string name;
+  std::string family;
   FcProblem p;
 };
 
-struct Timed {
+enum Solver { kOurs, kNsgs, kNsnAc, kProx, kSolvers };
+
+struct SolverInfo {
+  const char* key;    ///< JSON prefix
+  const char* label;  ///< human name
+  ESiconosSolver which;
+  int cap;  ///< iterations (ours: sweeps)
+};
+
+const SolverInfo kInfo[kSolvers] = {
+    {"ours", "ours", ESiconosSolver::Nsgs, kOurSweepCap},
+    {"nsgs", "Siconos NSGS", ESiconosSolver::Nsgs, 10000},
+    {"nsn_ac", "Siconos NSN-AC", ESiconosSolver::NsnAc, 200},
+    {"prox", "Siconos PROX", ESiconosSolver::Prox, 200},
+};
+
+/// One solver on one problem: the deciding run, then the timed rounds.
+struct Outcome {
   bool ran = false;
   bool solved = false;
   int iterations = 0;
-  int extrapolations = 0;  ///< ours only: extrapolation trials kept
-  double ms = NAN;
   double error = NAN;
-  double tolerance = 0.0;
+  double tolerance = 0.0;  ///< Siconos: the tolerance handed to it
+  double first_s = 0.0;    ///< the deciding run's time
+  std::string stop;        ///< why it stopped, when it did not solve
+  int batch = 1;           ///< solves per timed sample
+  std::vector<double> ms;  ///< one sample (ms per solve) per round
 };
 
-double Median(std::vector<double> v) {
+double Quantile(std::vector<double> v, double q) {
+  if (v.empty()) return NAN;
   std::sort(v.begin(), v.end());
-  return v.empty() ? NAN : v[v.size() / 2];
+  const size_t k = static_cast<size_t>(std::ceil(q * static_cast<double>(v.size())));
+  return v[std::min(v.size() - 1, k == 0 ? 0 : k - 1)];
+}
+double Median(const std::vector<double>& v) { return Quantile(v, 0.5); }
+
+bool InCi() {
+  const char* ci = std::getenv("CI");
+  return ci && *ci && std::strcmp(ci, "0") != 0 && std::strcmp(ci, "false") != 0;
 }
 
-int Repetitions(double seconds, bool quick) {
-  if (quick) return 1;
-  return seconds < 0.05 ? 7 : seconds < 0.5 ? 3 : 1;
-}
-
-Timed RunOurs(const FcProblem& p, bool quick) {
+FcSolveParams OurParams() {
   FcSolveParams params;
   params.nsgs.tolerance = kTarget;
-  params.nsgs.max_iterations = 20000;
-  Timed t;
-  t.ran = true;
-  t.tolerance = kTarget;
-  std::vector<double> ms;
-  Eigen::VectorXd r;
-  int reps = 1;
-  for (int k = 0; k < reps; ++k) {
-    r.resize(0);  // from zero forces every time
-    const FcSolveResult res = SolveFcProblem(p, params, &r);
-    ms.push_back(1e3 * res.seconds);
-    t.iterations = res.nsgs.iterations;
-    t.extrapolations = res.nsgs.extrapolations;
-    if (k == 0) reps = Repetitions(res.seconds, quick);
-  }
-  t.ms = Median(ms);
-  t.error = FcError(p, r);
-  t.solved = t.error <= kTarget;
-  return t;
+  params.nsgs.max_iterations = kOurSweepCap;
+  return params;
 }
 
-Timed RunSiconos(const FcProblem& p, ESiconosSolver which, int max_iterations, bool quick) {
-  Timed t;
-  if (!SiconosAvailable()) return t;
-  t.ran = true;
+std::string Printf(const char* fmt, double x) {
+  char b[96];
+  std::snprintf(b, sizeof b, fmt, x);
+  return b;
+}
+
+Outcome DecideOurs(const FcProblem& p) {
+  Outcome o;
+  o.ran = true;
   Eigen::VectorXd r;
-  // NSGS's own stopping test is a relative change of r: tighten it until the forces reach the target
-  for (double tol = kTarget; tol >= kTarget * 1e-3; tol *= 0.1) {
-    SiconosRun run = SolveWithSiconos(p, which, tol, max_iterations, &r);
-    const double err = FcError(p, r);
-    t.iterations = run.iterations;
-    t.error = err;
-    t.tolerance = tol;
-    t.ms = 1e3 * run.seconds;
-    if (err <= kTarget) {
-      t.solved = true;
-      std::vector<double> ms{1e3 * run.seconds};
-      const int reps = Repetitions(run.seconds, quick);
-      for (int k = 1; k < reps; ++k) ms.push_back(1e3 * SolveWithSiconos(p, which, tol, max_iterations).seconds);
-      t.ms = Median(ms);
-      break;
+  const FcSolveResult res = SolveFcProblem(p, OurParams(), &r);
+  o.iterations = res.nsgs.iterations;
+  o.error = FcError(p, r);
+  o.first_s = res.seconds;
+  o.solved = o.error <= kTarget;
+  if (!o.solved)
+    o.stop = res.nsgs.iterations >= kOurSweepCap ? "sweep cap " + std::to_string(kOurSweepCap)
+                                                 : "stopped after " + std::to_string(res.nsgs.iterations) + " sweeps";
+  return o;
+}
+
+// Siconos' own stopping tests are not our error: from 1e-6, the tolerance is
+// tightened tenfold until the forces reach it, down to 1e-9.
+Outcome DecideSiconos(const FcProblem& p, const SolverInfo& s) {
+  Outcome o;
+  if (!SiconosAvailable()) return o;
+  o.ran = true;
+  for (double tol = kTarget; tol >= kTarget * 0.9e-3; tol *= 0.1) {
+    Eigen::VectorXd r;
+    const SiconosRun run = SolveWithSiconosIsolated(p, s.which, tol, s.cap, &r);
+    o.tolerance = tol;
+    o.iterations = run.iterations;
+    o.first_s = run.seconds;
+    if (run.signal != 0) {
+      o.error = NAN;
+      o.stop = "aborted by signal " + std::to_string(run.signal) + " (" + strsignal(run.signal) + ")";
+      return o;
     }
-    if (run.iterations >= max_iterations) break;  // stalled: a tighter tolerance will not help
+    o.error = r.size() == 3 * p.contacts ? FcError(p, r) : NAN;
+    if (o.error <= kTarget) {
+      o.solved = true;
+      return o;
+    }
+    if (!std::isfinite(o.error)) {
+      o.stop = "returned no finite forces (info " + std::to_string(run.info) + ")";
+      return o;
+    }
+    if (run.iterations >= s.cap) {
+      o.stop = "iteration cap " + std::to_string(s.cap) + Printf(" at tolerance %.0e", tol);
+      return o;
+    }
   }
-  return t;
+  o.stop = "met its own test at every tolerance down to" + Printf(" %.0e", o.tolerance);
+  return o;
+}
+
+// One timed sample: `batch` solves from zero forces, the time per solve in ms.
+double TimeSample(const FcProblem& p, Solver s, const Outcome& o) {
+  double seconds = 0.0;
+  for (int k = 0; k < o.batch; ++k) {
+    if (s == kOurs) {
+      Eigen::VectorXd r;
+      seconds += SolveFcProblem(p, OurParams(), &r).seconds;
+    } else {
+      seconds += SolveWithSiconos(p, kInfo[s].which, o.tolerance, kInfo[s].cap).seconds;
+    }
+  }
+  return 1e3 * seconds / o.batch;
+}
+
+/// Rounds of interleaved timing: 7, or fewer when one round of all solvers is long
+/// (5 past 1 s, 3 past 5 s): the same rule in --quick and the full run.
+int Rounds(double round_s) { return round_s <= 1.0 ? 7 : round_s <= 5.0 ? 5 : 3; }
+
+int TimeInterleaved(const FcProblem& p, Outcome out[kSolvers]) {
+  double round_s = 0.0;
+  for (int s = 0; s < kSolvers; ++s) {
+    if (!out[s].solved) continue;
+    const double first = std::max(out[s].first_s, 1e-6);
+    out[s].batch = std::clamp(static_cast<int>(std::ceil(kMinSampleS / first)), 1, kMaxBatch);
+    round_s += out[s].batch * first;
+  }
+  const int rounds = Rounds(round_s);
+  for (int k = 0; k < rounds; ++k)
+    for (int s = 0; s < kSolvers; ++s)
+      if (out[s].solved) out[s].ms.push_back(TimeSample(p, static_cast<Solver>(s), out[s]));
+  return rounds;
 }
 
 bool PaperGraspProblem(Problem* out, std::string* error) {
@@ -115,106 +199,279 @@ bool PaperGraspProblem(Problem* out, std::string* error) {
     w.Step();
   }
   out->name = "paper_grasp_t1.0";
+  out->family = "paper_grasp";
   AssembleContactProblem(w, &out->p);
   return out->p.contacts > 0;
 }
 
-const char* Fmt(double x, char* buf, size_t n) {
-  if (std::isnan(x)) return "-";
-  std::snprintf(buf, n, "%.3g", x);
-  return buf;
+// The generated families: quick keeps one small member of each.
+void AddFamilies(bool quick, std::vector<Problem>* out) {
+  auto add = [out](std::string name, const char* family, FcProblem p) {
+    out->push_back({std::move(name), family, std::move(p)});
+  };
+  for (int n : quick ? std::vector<int>{50, 150} : std::vector<int>{50, 150, 500, 2000})
+    add("random_rigid_" + std::to_string(n), "random_rigid", RandomRigidProblem(n, 4, 7));
+  for (int n : quick ? std::vector<int>{24} : std::vector<int>{12, 24, 48, 200})
+    add("gripped_" + std::to_string(n), "gripped", GrippedBodyProblem(n, 1));
+  for (double ratio : quick ? std::vector<double>{1000} : std::vector<double>{10, 100, 1000})
+    for (int boxes : quick ? std::vector<int>{4} : std::vector<int>{4, 10})
+      add("stack_" + std::to_string(boxes) + Printf("_ratio%g", ratio), "mass_ratio_stack",
+          MassRatioStackProblem(boxes, ratio, 1));
+  for (int n : quick ? std::vector<int>{30} : std::vector<int>{60, 200, 400})
+    add("pile_" + std::to_string(n), "pile", PileProblem(n, 0.3, 1.0, 1));
+  for (double mu : quick ? std::vector<double>{1e-3, 10} : std::vector<double>{0.0, 1e-3, 1e-2, 10})
+    add(Printf("cone_mu%g", mu), "cone", ConeProblem(mu, 1));
 }
 
-}  // namespace
-
-int RunBenchSolver(const BenchOptions& opt) {
-  std::vector<Problem> problems;
-  const int sizes_full[] = {50, 150, 500, 2000};
-  const int sizes_quick[] = {50, 150};
-  const int* sizes = opt.quick ? sizes_quick : sizes_full;
-  const int nsizes = opt.quick ? 2 : 4;
-  for (int i = 0; i < nsizes; ++i)
-    problems.push_back({"random_rigid_" + std::to_string(sizes[i]), RandomRigidProblem(sizes[i], 4, 7)});
-  std::string error;
+bool AddRealProblems(std::vector<Problem>* out, std::string* error) {
 #ifdef GRASPSIM_HAVE_FCLIB
   for (const char* f : {"Capsules-i125-1213.hdf5", "LMGC_100_PR_PerioBox-i00361-60-03000.hdf5"}) {
     Problem pr;
     pr.name = f;
     pr.name.resize(pr.name.size() - 5);
-    if (!ReadFclibLocal(ResolveResource(std::string("tests/data/fclib/") + f), &pr.p, &error)) {
-      std::fprintf(stderr, "graspsim bench solver: %s\n", error.c_str());
-      return 3;
-    }
-    problems.push_back(std::move(pr));
+    pr.family = "fclib";
+    if (!ReadFclibLocal(ResolveResource(std::string("tests/data/fclib/") + f), &pr.p, error)) return false;
+    out->push_back(std::move(pr));
   }
+#else
+  (void)out;
+  (void)error;
 #endif
-  {
-    Problem pr;
-    if (!PaperGraspProblem(&pr, &error)) {
-      std::fprintf(stderr, "graspsim bench solver: the paper grasp: %s\n", error.empty() ? "no contacts" : error.c_str());
-      return 3;
-    }
-    problems.push_back(std::move(pr));
-  }
+  return true;
+}
 
-  const bool siconos = SiconosAvailable();
-  if (!opt.json) {
-    std::printf("graspsim bench solver: time to reach the Siconos error %.0e from zero forces (medians, one core)\n",
-                kTarget);
-    if (!siconos) std::printf("  (Siconos Numerics not built in: install libsiconos-numerics-dev and rebuild)\n");
-    std::printf("%-38s %6s | %9s %6s %9s | %9s %6s %9s | %9s %5s %9s | %7s\n", "problem", "n", "ours ms", "it",
-                "error", "NSGS ms", "it", "error", "PROX ms", "it", "error", "ours/NSGS");
+bool FclibAvailable() {
+#ifdef GRASPSIM_HAVE_FCLIB
+  return true;
+#else
+  return false;
+#endif
+}
+
+/// One problem's outcome for every solver, and the ratios drawn from it.
+struct Row {
+  const Problem* pr = nullptr;
+  Outcome out[kSolvers];
+  int rounds = 0;
+  int best = -1;  ///< the fastest Siconos solver that solved it
+  double ratio_best = NAN, ratio_nsgs = NAN;
+};
+
+Row RunProblem(const Problem& pr) {
+  Row row;
+  row.pr = &pr;
+  row.out[kOurs] = DecideOurs(pr.p);
+  for (int s = kNsgs; s < kSolvers; ++s) row.out[s] = DecideSiconos(pr.p, kInfo[s]);
+  row.rounds = TimeInterleaved(pr.p, row.out);
+  for (int s = kNsgs; s < kSolvers; ++s)
+    if (row.out[s].solved && (row.best < 0 || Median(row.out[s].ms) < Median(row.out[row.best].ms))) row.best = s;
+  const double ours = row.out[kOurs].solved ? Median(row.out[kOurs].ms) : NAN;
+  if (row.best >= 0) row.ratio_best = ours / Median(row.out[row.best].ms);
+  if (row.out[kNsgs].solved) row.ratio_nsgs = ours / Median(row.out[kNsgs].ms);
+  return row;
+}
+
+bool AllFailed(const Row& row) {
+  for (const Outcome& o : row.out)
+    if (o.solved) return false;
+  return true;
+}
+
+std::string Num(double x) {
+  if (!std::isfinite(x)) return "null";
+  return Printf("%.6g", x);
+}
+
+std::string Quote(const std::string& s) {
+  std::string q = "\"";
+  for (char c : s) q += (c == '"' || c == '\\') ? std::string("\\") + c : std::string(1, c);
+  return q + "\"";
+}
+
+void PrintJsonRow(const Row& row) {
+  std::string line = "{\"problem\":" + Quote(row.pr->name) + ",\"family\":" + Quote(row.pr->family) +
+                     ",\"contacts\":" + std::to_string(row.pr->p.contacts) + ",\"rounds\":" + std::to_string(row.rounds);
+  for (int s = 0; s < kSolvers; ++s) {
+    const Outcome& o = row.out[s];
+    const std::string k = std::string(",\"") + kInfo[s].key;
+    line += k + "_solved\":" + (o.solved ? "true" : "false") + k + "_ms\":" + Num(Median(o.ms)) + k +
+            "_ms_min\":" + Num(Quantile(o.ms, 0.0)) + k + "_ms_max\":" + Num(Quantile(o.ms, 1.0)) + k +
+            "_samples\":" + std::to_string(o.ms.size()) + k + "_batch\":" + std::to_string(o.batch) + k +
+            "_iterations\":" + std::to_string(o.iterations) + k + "_error\":" + Num(o.error);
+    if (s != kOurs) line += k + "_tolerance\":" + Num(o.tolerance);
+    if (!o.solved) line += k + "_stop\":" + Quote(o.ran ? o.stop : "not built in");
   }
-  double worst_ratio = 0.0;
-  int unsolved = 0, nsgs_unsolved = 0, stall_wins = 0;
-  for (const Problem& pr : problems) {
-    const Timed ours = RunOurs(pr.p, opt.quick);
-    const Timed nsgs = RunSiconos(pr.p, ESiconosSolver::Nsgs, opt.quick ? 3000 : 10000, opt.quick);
-    const Timed prox = RunSiconos(pr.p, ESiconosSolver::Prox, 200, opt.quick);
-    unsolved += ours.solved ? 0 : 1;
-    nsgs_unsolved += nsgs.ran && !nsgs.solved ? 1 : 0;
-    if (nsgs.ran && !nsgs.solved && ours.solved) ++stall_wins;
-    double ratio = NAN;
-    if (nsgs.solved) {
-      ratio = ours.solved ? ours.ms / nsgs.ms : INFINITY;
-      worst_ratio = std::max(worst_ratio, ratio);
+  line += ",\"best_siconos\":" + (row.best < 0 ? std::string("null") : Quote(kInfo[row.best].key)) +
+          ",\"all_failed\":" + (AllFailed(row) ? "true" : "false") +
+          ",\"time_ratio_vs_best_siconos\":" + Num(row.ratio_best) + ",\"time_ratio_vs_nsgs\":" + Num(row.ratio_nsgs) +
+          "}";
+  std::puts(line.c_str());
+}
+
+// One line per solver that did not solve the problem, with its error and the cap it hit.
+void PrintJsonFailures(const Row& row) {
+  for (int s = 0; s < kSolvers; ++s) {
+    const Outcome& o = row.out[s];
+    if (!o.ran || o.solved) continue;
+    std::printf("{\"not_solved_by\":\"%s\",\"problem\":%s,\"family\":%s,\"error\":%s,\"iterations\":%d,\"stop\":%s}\n",
+                kInfo[s].key, Quote(row.pr->name).c_str(), Quote(row.pr->family).c_str(), Num(o.error).c_str(),
+                o.iterations, Quote(o.stop).c_str());
+  }
+  if (AllFailed(row))
+    std::printf("{\"not_solved_by\":\"all\",\"problem\":%s,\"family\":%s}\n", Quote(row.pr->name).c_str(),
+                Quote(row.pr->family).c_str());
+}
+
+std::string Cell(const Outcome& o) {
+  if (!o.ran) return "-";
+  if (!o.solved) return "x " + Printf("%.1e", o.error);
+  return Printf("%.3g", Median(o.ms)) + " / " + std::to_string(o.iterations);
+}
+
+void PrintHumanHeader() {
+  std::printf("%-36s %-16s %5s |", "problem", "family", "n");
+  for (const SolverInfo& s : kInfo) std::printf(" %16s", (std::string(s.label) + " ms/it").c_str());
+  std::printf(" | %-6s %6s %6s\n", "best", "/best", "/NSGS");
+}
+
+void PrintHumanRow(const Row& row) {
+  std::printf("%-36s %-16s %5d |", row.pr->name.c_str(), row.pr->family.c_str(), row.pr->p.contacts);
+  for (const Outcome& o : row.out) std::printf(" %16s", Cell(o).c_str());
+  std::printf(" | %-6s %6s %6s\n", row.best < 0 ? "-" : kInfo[row.best].key,
+              std::isfinite(row.ratio_best) ? Printf("%.3g", row.ratio_best).c_str() : "-",
+              std::isfinite(row.ratio_nsgs) ? Printf("%.3g", row.ratio_nsgs).c_str() : "-");
+}
+
+void PrintHumanFailures(const std::vector<Row>& rows) {
+  std::printf("\nNot solved to %.0e (final error, why it stopped):\n", kTarget);
+  int n = 0;
+  for (const Row& row : rows) {
+    for (int s = 0; s < kSolvers; ++s) {
+      const Outcome& o = row.out[s];
+      if (!o.ran || o.solved) continue;
+      std::printf("  %-36s %-15s %9s  %s\n", row.pr->name.c_str(), kInfo[s].label, Printf("%.2e", o.error).c_str(),
+                  o.stop.c_str());
+      ++n;
     }
+    if (AllFailed(row)) std::printf("  %-36s NO SOLVER solved it\n", row.pr->name.c_str());
+  }
+  if (n == 0) std::printf("  (none)\n");
+}
+
+/// The headline's figures over all rows.
+struct Summary {
+  std::vector<double> ratio_best, ratio_nsgs;
+  int unsolved = 0, nsgs_unsolved = 0, all_failed = 0, stall_wins = 0, no_siconos_wins = 0, siconos_only = 0;
+  int min_rounds = 0;
+};
+
+Summary Summarise(const std::vector<Row>& rows) {
+  Summary s;
+  s.min_rounds = rows.empty() ? 0 : rows.front().rounds;
+  for (const Row& row : rows) {
+    const bool ours = row.out[kOurs].solved;
+    s.unsolved += ours ? 0 : 1;
+    s.all_failed += AllFailed(row) ? 1 : 0;
+    if (row.out[kNsgs].ran && !row.out[kNsgs].solved) {
+      ++s.nsgs_unsolved;
+      s.stall_wins += ours ? 1 : 0;
+    }
+    if (ours && row.best < 0 && row.out[kNsgs].ran) ++s.no_siconos_wins;
+    if (!ours && row.best >= 0) ++s.siconos_only;
+    if (std::isfinite(row.ratio_best)) s.ratio_best.push_back(row.ratio_best);
+    if (std::isfinite(row.ratio_nsgs)) s.ratio_nsgs.push_back(row.ratio_nsgs);
+    if (row.rounds > 0) s.min_rounds = std::min(s.min_rounds == 0 ? row.rounds : s.min_rounds, row.rounds);
+  }
+  return s;
+}
+
+void PrintJsonHeadline(const Summary& s, size_t problems) {
+  std::printf(
+      "{\"bench\":\"solver\",\"siconos\":%s,\"fclib\":%s,\"problems\":%zu,\"target_error\":%.0e,\"min_rounds\":%d,"
+      "\"time_ratio_vs_best_siconos_median\":%s,\"time_ratio_vs_best_siconos_p90\":%s,"
+      "\"worst_time_ratio_vs_best_siconos\":%s,\"time_ratio_vs_nsgs_median\":%s,\"worst_time_ratio_vs_nsgs\":%s,"
+      "\"target_ratio\":0.5,\"nsgs_unsolved\":%d,\"solved_where_nsgs_stalls\":%d,"
+      "\"solved_where_no_siconos_solves\":%d,\"siconos_solves_where_we_fail\":%d,\"all_failed\":%d,\"unsolved\":%d}\n",
+      SiconosAvailable() ? "true" : "false", FclibAvailable() ? "true" : "false", problems, kTarget, s.min_rounds,
+      Num(Median(s.ratio_best)).c_str(), Num(Quantile(s.ratio_best, 0.9)).c_str(),
+      Num(Quantile(s.ratio_best, 1.0)).c_str(), Num(Median(s.ratio_nsgs)).c_str(),
+      Num(Quantile(s.ratio_nsgs, 1.0)).c_str(), s.nsgs_unsolved, s.stall_wins, s.no_siconos_wins, s.siconos_only,
+      s.all_failed, s.unsolved);
+}
+
+void PrintHumanHeadline(const Summary& s) {
+  std::printf("\nours / fastest Siconos solver that solved it, over %zu problems: median %s, 90th percentile %s, "
+              "worst %s\n",
+              s.ratio_best.size(), Num(Median(s.ratio_best)).c_str(), Num(Quantile(s.ratio_best, 0.9)).c_str(),
+              Num(Quantile(s.ratio_best, 1.0)).c_str());
+  std::printf("ours / Siconos NSGS, over %zu problems: median %s, worst %s (target <= 0.5)\n", s.ratio_nsgs.size(),
+              Num(Median(s.ratio_nsgs)).c_str(), Num(Quantile(s.ratio_nsgs, 1.0)).c_str());
+  std::printf("ours unsolved %d (of which some Siconos solver solves %d); NSGS unsolved %d, of which we solve %d; "
+              "solved by no Siconos solver but ours %d; solved by none %d\n",
+              s.unsolved, s.siconos_only, s.nsgs_unsolved, s.stall_wins, s.no_siconos_wins, s.all_failed);
+}
+
+/// Says which peer is missing; true when that must fail the run (CI=true).
+bool ReportMissingPeers() {
+  bool missing = false;
+  if (!SiconosAvailable()) {
+    std::fprintf(stderr, "graspsim bench solver: Siconos Numerics is not built in (install libsiconos-numerics-dev "
+                         "and reconfigure): ours runs alone, no ratio is measured\n");
+    missing = true;
+  }
+  if (!FclibAvailable()) {
+    std::fprintf(stderr, "graspsim bench solver: FCLIB is not built in (install libfclib-dev and reconfigure): the "
+                         "real FCLIB problems are left out\n");
+    missing = true;
+  }
+  if (missing && InCi()) std::fprintf(stderr, "graspsim bench solver: CI is set: a missing peer fails the run\n");
+  return missing && InCi();
+}
+
+}  // namespace
+
+int RunBenchSolver(const BenchOptions& opt) {
+  const bool fail_missing = ReportMissingPeers();
+  std::vector<Problem> problems;
+  std::string error;
+  if (!AddRealProblems(&problems, &error)) {
+    std::fprintf(stderr, "graspsim bench solver: %s\n", error.c_str());
+    return 3;
+  }
+  Problem grasp;
+  if (!PaperGraspProblem(&grasp, &error)) {
+    std::fprintf(stderr, "graspsim bench solver: the paper grasp: %s\n", error.empty() ? "no contacts" : error.c_str());
+    return 3;
+  }
+  problems.push_back(std::move(grasp));
+  AddFamilies(opt.quick, &problems);
+
+  if (!opt.json) {
+    std::printf("graspsim bench solver: time to reach the Siconos error %.0e from zero forces (median of interleaved "
+                "rounds, one core; x: not solved, final error)\n",
+                kTarget);
+    PrintHumanHeader();
+  }
+  std::vector<Row> rows;
+  for (const Problem& pr : problems) {
+    rows.push_back(RunProblem(pr));
     if (opt.json) {
-      auto num = [](double x) {
-        char b[32];
-        if (!std::isfinite(x)) return std::string("null");
-        std::snprintf(b, sizeof b, "%.6g", x);
-        return std::string(b);
-      };
-      std::printf(
-          "{\"problem\":\"%s\",\"contacts\":%d,\"ours_ms\":%s,\"ours_iterations\":%d,\"ours_error\":%s,"
-          "\"ours_solved\":%s,\"ours_extrapolations\":%d,\"nsgs_ms\":%s,\"nsgs_iterations\":%d,\"nsgs_error\":%s,\"nsgs_solved\":%s,"
-          "\"nsgs_tolerance\":%s,\"prox_ms\":%s,\"prox_iterations\":%d,\"prox_error\":%s,\"prox_solved\":%s,"
-          "\"time_ratio_vs_nsgs\":%s}\n",
-          pr.name.c_str(), pr.p.contacts, num(ours.ms).c_str(), ours.iterations, num(ours.error).c_str(),
-          ours.solved ? "true" : "false", ours.extrapolations, num(nsgs.ms).c_str(), nsgs.iterations, num(nsgs.error).c_str(),
-          nsgs.solved ? "true" : "false", num(nsgs.tolerance).c_str(), num(prox.ms).c_str(), prox.iterations,
-          num(prox.error).c_str(), prox.solved ? "true" : "false", num(ratio).c_str());
+      PrintJsonRow(rows.back());
+      PrintJsonFailures(rows.back());
     } else {
-      char b[12][32];
-      std::printf("%-38s %6d | %9s %6d %9s | %9s %6d %9s | %9s %5d %9s | %7s\n", pr.name.c_str(), pr.p.contacts,
-                  Fmt(ours.ms, b[0], 32), ours.iterations, Fmt(ours.error, b[1], 32), Fmt(nsgs.ms, b[2], 32),
-                  nsgs.iterations, Fmt(nsgs.error, b[3], 32), Fmt(prox.ms, b[4], 32), prox.iterations,
-                  Fmt(prox.error, b[5], 32), Fmt(ratio, b[6], 32));
+      PrintHumanRow(rows.back());
     }
     std::fflush(stdout);
   }
+  const Summary summary = Summarise(rows);
   if (opt.json) {
-    std::printf(
-        "{\"bench\":\"solver\",\"siconos\":%s,\"problems\":%zu,\"target_error\":%.0e,\"nsgs_unsolved\":%d,"
-        "\"solved_where_nsgs_stalls\":%d,\"target_ratio\":0.5,\"worst_time_ratio_vs_nsgs\":%.4g,\"unsolved\":%d}\n",
-        siconos ? "true" : "false", problems.size(), kTarget, nsgs_unsolved, stall_wins, worst_ratio, unsolved);
+    PrintJsonHeadline(summary, rows.size());
   } else {
-    std::printf("worst time ratio ours/NSGS %.3g (target <= 0.5); ours unsolved %d; NSGS unsolved %d, of which we "
-                "solve %d\n",
-                worst_ratio, unsolved, nsgs_unsolved, stall_wins);
+    PrintHumanFailures(rows);
+    PrintHumanHeadline(summary);
   }
-  return unsolved == 0 ? 0 : 1;
+  if (fail_missing) return 2;
+  return summary.unsolved == 0 ? 0 : 1;
 }
 
 }  // namespace gs::app

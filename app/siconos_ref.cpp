@@ -7,6 +7,7 @@
 
 #ifdef GRASPSIM_HAVE_SICONOS
 #include <fcntl.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <FrictionContactProblem.h>
@@ -21,10 +22,23 @@
 
 namespace gs::app {
 
+const char* SiconosSolverName(ESiconosSolver solver) {
+  switch (solver) {
+    case ESiconosSolver::Nsgs:
+      return "NSGS";
+    case ESiconosSolver::NsnAc:
+      return "NSN_AC";
+    case ESiconosSolver::Prox:
+      return "PROX";
+  }
+  return "?";
+}
+
 #ifndef GRASPSIM_HAVE_SICONOS
 
 bool SiconosAvailable() { return false; }
 SiconosRun SolveWithSiconos(const FcProblem&, ESiconosSolver, double, int, Eigen::VectorXd*) { return {}; }
+SiconosRun SolveWithSiconosIsolated(const FcProblem&, ESiconosSolver, double, int, Eigen::VectorXd*) { return {}; }
 
 #else
 
@@ -75,6 +89,53 @@ NumericsMatrix* ToNumerics(const FcProblem& p) {
   return NM_new_SBM(m, m, sbm);
 }
 
+int SiconosId(ESiconosSolver solver) {
+  switch (solver) {
+    case ESiconosSolver::Nsgs:
+      return SICONOS_FRICTION_3D_NSGS;
+    case ESiconosSolver::NsnAc:
+      return SICONOS_FRICTION_3D_NSN_AC;
+    case ESiconosSolver::Prox:
+      return SICONOS_FRICTION_3D_PROX;
+  }
+  return SICONOS_FRICTION_3D_NSGS;
+}
+
+// The fixed-size part of a SiconosRun as the child sends it, then 3n doubles of forces.
+struct RunHeader {
+  int info, iterations;
+  double seconds, error;
+};
+
+bool WriteAll(int fd, const void* data, size_t n) {
+  const char* p = static_cast<const char*>(data);
+  while (n > 0) {
+    const ssize_t k = write(fd, p, n);
+    if (k <= 0) return false;
+    p += k, n -= static_cast<size_t>(k);
+  }
+  return true;
+}
+
+bool ReadAll(int fd, void* data, size_t n) {
+  char* p = static_cast<char*>(data);
+  while (n > 0) {
+    const ssize_t k = read(fd, p, n);
+    if (k <= 0) return false;
+    p += k, n -= static_cast<size_t>(k);
+  }
+  return true;
+}
+
+[[noreturn]] void ChildSolve(int fd, const FcProblem& p, ESiconosSolver solver, double tolerance, int max_iterations) {
+  Eigen::VectorXd r;
+  const SiconosRun run = SolveWithSiconos(p, solver, tolerance, max_iterations, &r);
+  const RunHeader h{run.info, run.iterations, run.seconds, run.error};
+  const bool ok = WriteAll(fd, &h, sizeof h) && r.size() == 3 * p.contacts &&
+                  WriteAll(fd, r.data(), sizeof(double) * static_cast<size_t>(r.size()));
+  _exit(ok ? 0 : 1);
+}
+
 }  // namespace
 
 bool SiconosAvailable() { return true; }
@@ -93,8 +154,7 @@ SiconosRun SolveWithSiconos(const FcProblem& p, ESiconosSolver solver, double to
   std::memcpy(q, p.q.data(), sizeof(double) * m);
   std::memcpy(mu, p.mu.data(), sizeof(double) * p.contacts);
   FrictionContactProblem* fc = frictionContactProblem_new_with_data(3, p.contacts, W, q, mu);
-  SolverOptions* o =
-      solver_options_create(solver == ESiconosSolver::Nsgs ? SICONOS_FRICTION_3D_NSGS : SICONOS_FRICTION_3D_PROX);
+  SolverOptions* o = solver_options_create(SiconosId(solver));
   o->dparam[SICONOS_DPARAM_TOL] = tolerance;
   o->iparam[SICONOS_IPARAM_MAX_ITER] = max_iterations;
   std::vector<double> r(m, 0.0), u(m, 0.0);
@@ -112,6 +172,41 @@ SiconosRun SolveWithSiconos(const FcProblem& p, ESiconosSolver solver, double to
   if (r_out) *r_out = Eigen::Map<const Eigen::VectorXd>(r.data(), m);
   solver_options_delete(o);
   frictionContactProblem_free(fc);
+  return run;
+}
+
+SiconosRun SolveWithSiconosIsolated(const FcProblem& p, ESiconosSolver solver, double tolerance, int max_iterations,
+                                    Eigen::VectorXd* r_out) {
+  SiconosRun run;
+  run.available = true;
+  run.tolerance = tolerance;
+  int fds[2];
+  if (pipe(fds) != 0) return run;
+  std::fflush(stdout);
+  const pid_t pid = fork();
+  if (pid < 0) {
+    close(fds[0]);
+    close(fds[1]);
+    return run;
+  }
+  if (pid == 0) {
+    close(fds[0]);
+    ChildSolve(fds[1], p, solver, tolerance, max_iterations);
+  }
+  close(fds[1]);
+  RunHeader h{};
+  Eigen::VectorXd r(3 * p.contacts);
+  const bool got = ReadAll(fds[0], &h, sizeof h) && ReadAll(fds[0], r.data(), sizeof(double) * r.size());
+  close(fds[0]);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  if (WIFSIGNALED(status)) run.signal = WTERMSIG(status);
+  if (!got || run.signal != 0) return run;
+  run.info = h.info;
+  run.iterations = h.iterations;
+  run.seconds = h.seconds;
+  run.error = h.error;
+  if (r_out) *r_out = r;
   return run;
 }
 
