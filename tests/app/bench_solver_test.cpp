@@ -142,7 +142,7 @@ void CheckFailures(const QuickRun& run) {
 }
 
 // Quick mode times as the full run does: warm, interleaved rounds (7, or 5 when one
-// round of all solvers passes 1 s: never a single cold run), each solver that solved
+// round of all solvers passes 3 s on a loaded machine: never a single cold run), each solver that solved
 // the problem with one sample per round.
 void CheckTiming(const QuickRun& run) {
   ASSERT_FALSE(run.problems.empty());
