@@ -87,7 +87,12 @@ void Overlaps(const World& w, std::vector<IllPosed>* out) {
       const Body& b = w.bodies[j];
       if (b.geometry.is_plane || (a.articulation < 0 && b.articulation < 0)) continue;
       if (a.finger >= 0 && a.finger == b.finger) continue;
-      const double deepest = DeepestOverlap(w, i, j, &scratch, &contacts);
+      // contacts too deep to project are not found: the core balls (Body::core_radius)
+      // give a lower bound of the overlap that holds however deep it is
+      const double cores = a.core_radius > 0.0 && b.core_radius > 0.0
+                               ? a.core_radius + b.core_radius - (a.pose.t - b.pose.t).norm()
+                               : 0.0;
+      const double deepest = std::max(cores, DeepestOverlap(w, i, j, &scratch, &contacts));
       const double leaf = std::min(SmallestLeaf(a), SmallestLeaf(b));
       if (!(deepest > leaf)) continue;
       char msg[640];

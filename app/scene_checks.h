@@ -7,7 +7,9 @@
 //    moves more than half of its smallest sphere-tree leaf in one step: contacts
 //    would be found so deep that their projection can land on the wrong side of
 //    the surface, and the body tunnels through thin parts;
-//  - two point-based bodies that start overlapping by more than a leaf radius:
+//  - two point-based bodies that start overlapping by more than a leaf radius
+//    (the deepest contact found, or the overlap of the balls about their centres
+//    that lie inside them, Body::core_radius, for overlaps too deep to project):
 //    the same wrong-side projections push them apart in random directions
 //    (a body overlapping an analytic plane is fine: it is pushed out at
 //    WorldParams::max_push_out_speed).

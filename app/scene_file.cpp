@@ -647,8 +647,8 @@ void BuildScript(const Scene& scene, World& w, ScriptPlayer* script, std::vector
           const Vec3 reach = FingerForward(fg.model, Pose(), q).tip.t;
           std::ostringstream s;
           s << "script at " << k.time << " s: finger '" << fg.name << "' cannot reach its fingertip target ("
-            << residual * 1e3 << " mm short within its joint limits). Use [" << reach.x() << ", " << reach.y() << ", "
-            << reach.z() << "] m (the nearest point it reaches) or move the hand";
+            << residual * 1e3 << " mm short within its joint limits). Use a target it reaches, such as [" << reach.x()
+            << ", " << reach.y() << ", " << reach.z() << "] m (where the inverse kinematics stopped), or move the hand";
           errors->push_back(With(k.tip_target_at.at(fg.name), s.str()));
         }
         last[f] = q;
