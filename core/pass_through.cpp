@@ -84,7 +84,9 @@ bool FindPassThrough(World& w) {
       if (a.finger >= 0 && a.finger == b.finger) continue;
       if (a.geometry.is_plane || b.geometry.is_plane) {
         const int plane = a.geometry.is_plane ? i : j, other = a.geometry.is_plane ? j : i;
-        if (!w.bodies[other].geometry.is_plane && Moves(w.bodies[other]) && ThroughPlane(w, plane, other)) return true;
+        const Body& o = w.bodies[other];
+        // a body without a core (a sheet, a ring) may rest with its centre on the plane
+        if (!o.geometry.is_plane && Moves(o) && o.core_radius > 0.0 && ThroughPlane(w, plane, other)) return true;
         continue;
       }
       if (a.core_radius > 0.0 && b.core_radius > 0.0 && ThroughBody(w, i, j)) return true;

@@ -181,6 +181,7 @@ TEST(SceneChecks, RunOutWritesTrajectoryAndContactsWithUnits) {
             "penetration_after_m");
   EXPECT_LE(contacts.size(), 1u + 10u * 2u);  // every 10th step, at most the two touching pairs
   int settled_rows = 0;
+  double fn_table = 0.0, fn_bottom = 0.0;  // summed over the settled steps
   for (size_t i = 1; i < contacts.size(); ++i) {
     const std::vector<std::string> c = Cells(contacts[i]);
     ASSERT_EQ(c.size(), 12u) << contacts[i];
@@ -191,12 +192,13 @@ TEST(SceneChecks, RunOutWritesTrajectoryAndContactsWithUnits) {
     EXPECT_LT(std::stod(c[11]), 1e-4) << contacts[i];  // penetration after the solve
     if (step < 50) continue;
     ++settled_rows;
-    // settled: each pair carries the weight above it (0.1 kg a box)
-    const double fn = std::stod(c[8]);
-    if (c[2] == "table") EXPECT_NEAR(fn, 0.2 * 9.81, 0.2) << contacts[i];
-    if (c[2] == "bottom") EXPECT_NEAR(fn, 0.1 * 9.81, 0.15) << contacts[i];
+    (c[2] == "table" ? fn_table : fn_bottom) += std::stod(c[8]);
   }
   EXPECT_EQ(settled_rows, 6 * 2) << ReadFile(dir + "/contacts.csv");  // steps 50..100, both pairs
+  // settled: on average each pair carries the weight above it (0.1 kg a box; the
+  // top box rocks on its coarse surface, so one step's force varies by 20 %)
+  EXPECT_NEAR(fn_table / 6, 0.2 * 9.81, 0.1 * 0.2 * 9.81) << ReadFile(dir + "/contacts.csv");
+  EXPECT_NEAR(fn_bottom / 6, 0.1 * 9.81, 0.1 * 0.1 * 9.81) << ReadFile(dir + "/contacts.csv");
   const std::string summary = ReadFile(dir + "/summary.json");
   EXPECT_NE(summary.find("\"pass_through_steps\":0"), std::string::npos) << summary;
   std::filesystem::remove_all(dir);
