@@ -2,6 +2,8 @@
 // inside another body during a step has passed through its surface, and the
 // contacts of the next steps would push it out on the wrong side. Such a step is
 // rejected like a non-finite one, so that a run reports it instead of going on.
+// Only bodies with a core (Body::core_radius > 0: their centre lies inside their
+// surface) are checked; a flat sheet of points may rest with its centre on a plane.
 #include <algorithm>
 #include <cmath>
 
