@@ -37,25 +37,69 @@ double RoundDown(double x) {
 
 bool Checked(const Body& b) { return b.motion == EMotion::Free && !b.geometry.is_plane && b.mass > 0.0; }
 
+// the farthest a body may move in one step: half its smallest leaf, and no farther
+// than the thinnest other body reaches from its centre (its core radius, the depth
+// at which a pass-through is caught); `thinnest` is -1 when the leaf is the bound
+struct TravelLimit {
+  double travel = 0.0;
+  int thinnest = -1;
+};
+
+TravelLimit AllowedTravel(const World& w, size_t i) {
+  TravelLimit t{0.5 * SmallestLeaf(w.bodies[i]), -1};
+  for (size_t j = 0; j < w.bodies.size(); ++j) {
+    const Body& o = w.bodies[j];
+    if (j == i || o.geometry.is_plane || !(o.core_radius > 0.0) || !(o.core_radius < t.travel)) continue;
+    t = {o.core_radius, static_cast<int>(j)};
+  }
+  return t;
+}
+
+// g dt^2 + v dt = travel for an inertial body (the damping only slows the fall),
+// m g dt / B = travel for a quasi-static one
+double LongestStep(const Body& b, double g, double travel) {
+  const double v = b.velocity.norm();
+  if (b.dynamics == EDynamics::QuasiStatic)
+    return b.mass * g > 0.0 && b.linear_damping > 0.0 ? travel * b.linear_damping / (b.mass * g) : kNever;
+  if (g > 0.0) return (std::sqrt(v * v + 4.0 * g * travel) - v) / (2.0 * g);
+  return v > 0.0 ? travel / v : kNever;
+}
+
+std::string TimeStepMessage(const World& w, int i, const TravelLimit& limit, double longest) {
+  const Body& b = w.bodies[i];
+  const double dt = w.params.dt, travel = StepTravel(b, dt, w.params.gravity.norm());
+  char msg[700];
+  if (limit.thinnest < 0)
+    std::snprintf(msg, sizeof msg,
+                  "time step %g s is too long: body '%s' moves %.3g mm in one step (falling from %.3g m/s), more than "
+                  "half its smallest sphere-tree leaf (radius %.3g mm); contacts would be found too deep to resolve "
+                  "and it can tunnel through other bodies. Use timestep_s <= %.2g s, or fewer control points (larger "
+                  "leaves)",
+                  dt, b.name.c_str(), 1e3 * travel, b.velocity.norm(), 2e3 * limit.travel, RoundDown(longest));
+  else
+    std::snprintf(msg, sizeof msg,
+                  "time step %g s is too long: body '%s' moves %.3g mm in one step (falling from %.3g m/s), more than "
+                  "body '%s' reaches from its centre (%.3g mm): it can pass through it in one step. Use timestep_s "
+                  "<= %.2g s",
+                  dt, b.name.c_str(), 1e3 * travel, b.velocity.norm(), w.bodies[limit.thinnest].name.c_str(),
+                  1e3 * limit.travel, RoundDown(longest));
+  return msg;
+}
+
 void TimeStep(const World& w, std::vector<IllPosed>* out) {
   const double dt = w.params.dt, g = w.params.gravity.norm();
   int worst = -1;
   double longest = kNever;
+  TravelLimit worst_limit;
   for (size_t i = 0; i < w.bodies.size(); ++i) {
     const Body& b = w.bodies[i];
-    if (!Checked(b) || !(StepTravel(b, dt, g) > 0.5 * SmallestLeaf(b))) continue;
-    const double t = LongestTimeStep(b, g);
-    if (worst < 0 || t < longest) worst = static_cast<int>(i), longest = t;
+    if (!Checked(b)) continue;
+    const TravelLimit limit = AllowedTravel(w, i);
+    if (!(StepTravel(b, dt, g) > limit.travel)) continue;
+    const double t = LongestStep(b, g, limit.travel);
+    if (worst < 0 || t < longest) worst = static_cast<int>(i), longest = t, worst_limit = limit;
   }
-  if (worst < 0) return;
-  const Body& b = w.bodies[worst];
-  char msg[640];
-  std::snprintf(msg, sizeof msg,
-                "time step %g s is too long: body '%s' moves %.3g mm in one step (falling from %.3g m/s), more than "
-                "half its smallest sphere-tree leaf (radius %.3g mm); contacts would be found too deep to resolve and "
-                "it can tunnel through other bodies. Use timestep_s <= %.2g s, or fewer control points (larger leaves)",
-                dt, b.name.c_str(), 1e3 * StepTravel(b, dt, g), b.velocity.norm(), 1e3 * SmallestLeaf(b), RoundDown(longest));
-  out->push_back({IllPosed::ESite::TimeStep, worst, -1, msg});
+  if (worst >= 0) out->push_back({IllPosed::ESite::TimeStep, worst, -1, TimeStepMessage(w, worst, worst_limit, longest)});
 }
 
 // the deepest starting overlap of two point-based bodies (m)
@@ -108,16 +152,7 @@ void Overlaps(const World& w, std::vector<IllPosed>* out) {
 
 }  // namespace
 
-double LongestTimeStep(const Body& b, double g) {
-  const double half_leaf = 0.5 * SmallestLeaf(b), v = b.velocity.norm();
-  if (b.dynamics == EDynamics::QuasiStatic) {
-    // fall = m g dt / B
-    return b.mass * g > 0.0 && b.linear_damping > 0.0 ? half_leaf * b.linear_damping / (b.mass * g) : kNever;
-  }
-  // g dt^2 + v dt = half_leaf (the damping only slows the fall)
-  if (g > 0.0) return (std::sqrt(v * v + 4.0 * g * half_leaf) - v) / (2.0 * g);
-  return v > 0.0 ? half_leaf / v : kNever;
-}
+double LongestTimeStep(const Body& b, double g) { return LongestStep(b, g, 0.5 * SmallestLeaf(b)); }
 
 std::vector<IllPosed> FindIllPosed(const World& w) {
   std::vector<IllPosed> out;

@@ -4,9 +4,11 @@
 // BuildScene in app/scene_file.cpp) and `graspsim stress` (worlds built in code)
 // apply the same checks:
 //  - a time step so long that a free body, falling from its initial velocity,
-//    moves more than half of its smallest sphere-tree leaf in one step: contacts
+//    moves more than half of its smallest sphere-tree leaf in one step (contacts
 //    would be found so deep that their projection can land on the wrong side of
-//    the surface, and the body tunnels through thin parts;
+//    the surface, and the body tunnels through thin parts), or farther than the
+//    thinnest other body reaches from its centre (Body::core_radius: it can pass
+//    through that body in one step);
 //  - two point-based bodies that start overlapping by more than a leaf radius
 //    (the deepest contact found, or the overlap of the balls about their centres
 //    that lie inside them, Body::core_radius, for overlaps too deep to project):

@@ -81,6 +81,7 @@ struct Refused {
 
 const Refused kRefused[] = {
     {"stack_dt_0.1.yaml", "timestep_s: 0.1", "0.1", "time step 0.1 s is too long: body 'bottom'"},
+    {"thin_plate.yaml", "timestep_s: 0.01", "0.01", "more than body 'plate' reaches from its centre"},
     {"deep_overlap.yaml", "position_m: [0, 0, 0.02]", "[", "bodies 'low' and 'high' start overlapping by"},
     {"wide_bandwidth.yaml", "kernel_bandwidth_m: 0.05", "0.05", "body 'ball': 'kernel_bandwidth_m' = 0.05 m"},
     {"open_mesh.yaml", "file: ../meshes/open_box.obj", "../meshes", "body 'tray': "},
