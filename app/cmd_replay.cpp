@@ -102,11 +102,7 @@ int Replay(const ReplayOptions& opt) {
 
   // outputs: everything deterministic (no wall times)
   std::ostringstream traj, tips, frames;
-  traj << "time_s";
-  for (const Body& b : w.bodies)
-    if (b.motion == EMotion::Free)
-      for (const char* c : {"x", "y", "z", "qw", "qx", "qy", "qz"}) traj << "," << b.name << "_" << c;
-  traj << "\n";
+  WriteTrajectoryHeader(traj, w);
   const auto& fmap = sim->config().fingertips;
   tips << "time_s";
   for (const auto& f : fmap)
@@ -156,6 +152,9 @@ int Replay(const ReplayOptions& opt) {
     if (opt.realtime)
       std::this_thread::sleep_until(t0 + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(w.time)));
     sim->Step();
+    if (w.profile.rejected && w.rejected_steps <= 10)
+      std::fprintf(stderr, "replay: step %lld (t = %.4f s) rejected, previous state kept: %s\n",
+                   static_cast<long long>(w.step_count), w.time, RejectText(w).c_str());
     if (recorder.FrameDue(w)) sim->HudText(tracker_text, sizeof tracker_text);
     recorder.AfterStep(w, tracker_text);
     step_ms.push_back(1e3 * w.profile.total);
@@ -176,13 +175,7 @@ int Replay(const ReplayOptions& opt) {
       if (b >= 0) max_coupling = std::max(max_coupling, CouplingSpringForce(w.bodies[b]).norm());
     }
     if ((step + 1) % 10 == 0) {
-      traj << w.time;
-      for (const Body& b : w.bodies) {
-        if (b.motion != EMotion::Free) continue;
-        const Quat q(b.pose.R);
-        for (double v : {b.pose.t.x(), b.pose.t.y(), b.pose.t.z(), q.w(), q.x(), q.y(), q.z()}) Row(traj, v);
-      }
-      traj << "\n";
+      WriteTrajectoryRow(traj, w);
       tips << w.time;
       for (int i = 0; i < sim->follower().size(); ++i) {
         const int b = sim->follower().body(i);

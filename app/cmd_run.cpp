@@ -19,6 +19,7 @@ namespace {
 struct RunOptions {
   std::string scene = "config/paper_box_grasp.yaml";
   std::string out;
+  int every = 1;  ///< trajectory.csv and contacts.csv every Nth step
   double duration = -1.0;
   bool quiet = false;
   std::string export_fclib;  ///< folder for every step's contact problem (FCLIB)
@@ -86,6 +87,11 @@ int Run(const RunOptions& opt) {
     std::fprintf(stderr, "graspsim run: %s\n", error.c_str());
     return kExitUsage;
   }
+  StepFiles files;
+  if (!opt.out.empty() && !files.Open(opt.out, w, opt.every, &error)) {
+    std::fprintf(stderr, "graspsim run: %s\n", error.c_str());
+    return kExitFailure;
+  }
   const auto t1 = Clock::now();
   for (int64_t i = 0; i < steps; ++i) {
     built->script.Apply(w, w.time + w.params.dt);
@@ -93,8 +99,9 @@ int Run(const RunOptions& opt) {
     records.push_back(RecordStep(w));
     if (w.profile.rejected && w.rejected_steps <= 10)
       std::fprintf(stderr, "graspsim run: step %lld (t = %.4f s) rejected, previous state kept: %s%s\n",
-                   static_cast<long long>(w.step_count), w.time, w.profile.reject_reason,
+                   static_cast<long long>(w.step_count), w.time, RejectText(w).c_str(),
                    w.rejected_steps == 10 ? " (further rejected steps are counted, not logged)" : "");
+    if (!opt.out.empty()) files.AfterStep(w);
     frames.AfterStep(w);
     if (!opt.export_fclib.empty() && w.step_count % opt.export_every == 0 &&
         !ExportStep(opt.export_fclib, built->name, w, &exported, &error)) {
@@ -127,6 +134,7 @@ int Run(const RunOptions& opt) {
     std::ostringstream js;
     js << "{\"scene\":\"" << built->name << "\",\"steps\":" << steps << ",\"dt_s\":" << w.params.dt
        << ",\"simulated_s\":" << duration << ",\"wall_s\":" << wall << ",\"rejected_steps\":" << w.rejected_steps
+       << ",\"pass_through_steps\":" << w.pass_through_steps << ",\"every\":" << opt.every
        << ",\"unconverged_steps\":" << w.unconverged_steps << ",\"residual_max\":" << residual_max
        << ",\"state_hash\":\"" << StateHashHex(w) << "\"";
     if (tracked >= 0)
@@ -134,11 +142,17 @@ int Run(const RunOptions& opt) {
          << ",\"final_position_m\":[" << w.bodies[tracked].pose.t.x() << "," << w.bodies[tracked].pose.t.y() << ","
          << w.bodies[tracked].pose.t.z() << "]";
     js << "}";
-    if (!WriteRunOutputs(opt.out, built->name, records, js.str(), &error)) {
-      std::fprintf(stderr, "%s\n", error.c_str());
+    if (!files.Close(&error) || !WriteRunOutputs(opt.out, built->name, records, js.str(), &error)) {
+      std::fprintf(stderr, "graspsim run: %s\n", error.c_str());
       return kExitFailure;
     }
-    std::printf("wrote %s/timings.csv, contacts.csv, summary.json\n", opt.out.c_str());
+    std::printf("wrote %s/trajectory.csv, contacts.csv, timings.csv, summary.json\n", opt.out.c_str());
+  }
+  // a body that went through another is a failed run, even though its steps were undone
+  if (w.pass_through_steps > 0) {
+    std::fprintf(stderr, "graspsim run: %lld steps rejected because a body passed through another; the last: %s\n",
+                 static_cast<long long>(w.pass_through_steps), PassThroughText(w).c_str());
+    return kExitFailure;
   }
   return kExitOk;
 }
@@ -149,7 +163,10 @@ void AddRunCommand(CLI::App& app, int* exit_code) {
   auto opt = std::make_shared<RunOptions>();
   CLI::App* run = app.add_subcommand("run", "Run a scene headless as fast as possible (default: the paper's box grasp)");
   run->add_option("scene", opt->scene, "scene file (YAML)")->capture_default_str();
-  run->add_option("--out", opt->out, "output folder for timings.csv, contacts.csv and summary.json");
+  run->add_option("--out", opt->out,
+                  "output folder for trajectory.csv, contacts.csv, timings.csv and summary.json (README: Output files)");
+  run->add_option("--every", opt->every, "with --out: trajectory.csv and contacts.csv every Nth step")
+      ->check(CLI::PositiveNumber);
   run->add_option("--duration", opt->duration, "simulated seconds (default: the scene's duration_s)")
       ->check(CLI::PositiveNumber);
   run->add_option("--export-fclib", opt->export_fclib,

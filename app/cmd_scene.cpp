@@ -1,4 +1,7 @@
-// `graspsim scene check FILE...`: validates scene files without running them.
+// `graspsim scene check FILE...`: validates scene files without running them: the
+// file itself (LoadScene), then everything `run`, `replay` and `live` check when they
+// build it (BuildScene: meshes, sampling, bandwidths, time step, overlaps, reachable
+// fingertip targets, the tracker's bodies), so that it refuses exactly what they refuse.
 #include <cstdio>
 #include <memory>
 
@@ -18,7 +21,8 @@ void AddSceneCommand(CLI::App& app, int* exit_code) {
     for (const std::string& f : *files) {
       Scene s;
       std::vector<SceneError> errors;
-      if (!LoadScene(f, &s, &errors)) {
+      auto built = std::make_unique<BuiltScene>();
+      if (!LoadScene(f, &s, &errors) || !BuildScene(s, built.get(), &errors)) {
         all = false;
         for (const SceneError& e : errors) std::fprintf(stderr, "%s\n", e.Format().c_str());
         continue;

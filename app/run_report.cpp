@@ -5,6 +5,8 @@
 #include <filesystem>
 #include <fstream>
 
+#include "core/contact_jacobian.h"
+
 namespace gs::app {
 namespace {
 
@@ -18,6 +20,37 @@ double Max(const std::vector<double>& v) { return v.empty() ? 0.0 : *std::max_el
 
 }  // namespace
 
+// stick, slide or separating, as RecordStep counts them
+enum class EContactState { Stick, Slide, Separate };
+EContactState StateOf(const ContactRow& row) {
+  if (row.r[0] <= 0.0) return EContactState::Separate;
+  if (row.mu > 0 && row.r.tail<2>().norm() >= row.mu * row.r[0] * (1.0 - 1e-9)) return EContactState::Slide;
+  return EContactState::Stick;
+}
+
+// one line of contacts.csv: a body pair's contacts in one step
+struct PairTotals {
+  int a = -1, b = -1;
+  int contacts = 0, stick = 0, slide = 0, separate = 0;
+  double fn = 0.0, ft = 0.0, before = 0.0, after = 0.0;
+};
+
+void Add(PairTotals* p, const World& w, const ContactRow& row) {
+  ++p->contacts;
+  const EContactState s = StateOf(row);
+  (s == EContactState::Stick ? p->stick : s == EContactState::Slide ? p->slide : p->separate) += 1;
+  p->fn += row.r[0];
+  p->ft += row.r.tail<2>().norm();
+  p->before = std::max(p->before, -row.contact.gap);
+  p->after = std::max(p->after, -PostSolveGap(w, row));
+}
+
+void Cell(std::ostream& o, double v, const char* fmt) {
+  char buf[40];
+  std::snprintf(buf, sizeof buf, fmt, v);
+  o << buf;
+}
+
 StepRecord RecordStep(const World& w) {
   StepRecord r;
   r.time = w.time;
@@ -25,13 +58,8 @@ StepRecord RecordStep(const World& w) {
   for (const ContactRow& row : w.rows) {
     r.normal_force += row.r[0];
     r.max_penetration = std::max(r.max_penetration, -row.contact.gap);
-    if (row.r[0] <= 0.0) {
-      ++r.separate;
-    } else if (row.r.tail<2>().norm() >= row.mu * row.r[0] * (1.0 - 1e-9) && row.mu > 0) {
-      ++r.slide;
-    } else {
-      ++r.stick;
-    }
+    const EContactState s = StateOf(row);
+    (s == EContactState::Stick ? r.stick : s == EContactState::Slide ? r.slide : r.separate) += 1;
   }
   return r;
 }
@@ -65,21 +93,6 @@ bool WriteRunOutputs(const std::string& dir, const std::string& scene_name, cons
     }
   }
   {
-    std::ofstream f(fs::path(dir) / "contacts.csv");
-    f << "step,time_s,contacts,stick,slide,separating,normal_force_N,max_penetration_m\n";
-    char line[256];
-    for (size_t i = 0; i < steps.size(); ++i) {
-      const StepRecord& s = steps[i];
-      std::snprintf(line, sizeof line, "%zu,%.6f,%d,%d,%d,%d,%.6e,%.6e\n", i + 1, s.time, s.profile.contacts,
-                    s.stick, s.slide, s.separate, s.normal_force, s.max_penetration);
-      f << line;
-    }
-    if (!f) {
-      *error = "cannot write contacts.csv in '" + dir + "'";
-      return false;
-    }
-  }
-  {
     std::ofstream f(fs::path(dir) / "summary.json");
     f << summary_json << "\n";
     if (!f) {
@@ -88,6 +101,116 @@ bool WriteRunOutputs(const std::string& dir, const std::string& scene_name, cons
     }
   }
   (void)scene_name;
+  return true;
+}
+
+double PostSolveGap(const World& w, const ContactRow& row) {
+  Vec3 u = row.q + ArticulatedVelocity(w, row);
+  for (const ContactSide& s : row.side) {
+    if (s.count > 0) {
+      const Body& b = w.bodies[s.body];
+      Vec3 d = Vec3::Zero();
+      for (int k = 0; k < s.count; ++k) d += s.w[k] * b.u_acc[s.idx[k]];
+      u += s.sign * (row.frame * b.pose.Rotate(d));
+    }
+  }
+  return u[0] - row.held_back;
+}
+
+std::string RejectText(const World& w) {
+  return w.profile.reject_reason == kPassThroughReason ? PassThroughText(w) : w.profile.reject_reason;
+}
+
+std::string PassThroughText(const World& w) {
+  const PassThrough& p = w.last_pass_through;
+  const Body& a = w.bodies[p.body];
+  const Body& b = w.bodies[p.other];
+  char msg[512];
+  if (b.geometry.is_plane)
+    std::snprintf(msg, sizeof msg, "body '%s' passed through plane '%s' at step %lld (t = %.4f s): its centre went "
+                  "%.3g mm below it", a.name.c_str(), b.name.c_str(), static_cast<long long>(p.step), p.time,
+                  -1e3 * p.distance);
+  else
+    std::snprintf(msg, sizeof msg, "body '%s' passed through body '%s' at step %lld (t = %.4f s): the centres came "
+                  "%.3g mm apart, inside the %.3g mm ball around a centre that lies within its body",
+                  a.name.c_str(), b.name.c_str(), static_cast<long long>(p.step), p.time, 1e3 * p.distance,
+                  1e3 * p.core);
+  return msg;
+}
+
+void WriteTrajectoryHeader(std::ostream& o, const World& w) {
+  o << "step,t_s";
+  for (const Body& b : w.bodies)
+    if (b.motion == EMotion::Free)
+      for (const char* c : {"x_m", "y_m", "z_m", "qw", "qx", "qy", "qz"}) o << "," << b.name << "_" << c;
+  o << "\n";
+}
+
+void WriteTrajectoryRow(std::ostream& o, const World& w) {
+  o << w.step_count;
+  Cell(o, w.time, ",%.17g");
+  for (const Body& b : w.bodies) {
+    if (b.motion != EMotion::Free) continue;
+    const Quat q(b.pose.R);
+    for (double v : {b.pose.t.x(), b.pose.t.y(), b.pose.t.z(), q.w(), q.x(), q.y(), q.z()}) Cell(o, v, ",%.17g");
+  }
+  o << "\n";
+}
+
+bool StepFiles::Open(const std::string& dir, const World& w, int every, std::string* error) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) {
+    *error = "cannot create output folder '" + dir + "': " + ec.message();
+    return false;
+  }
+  dir_ = dir;
+  every_ = std::max(1, every);
+  trajectory_.open(fs::path(dir) / "trajectory.csv", std::ios::binary);
+  contacts_.open(fs::path(dir) / "contacts.csv", std::ios::binary);
+  if (!trajectory_ || !contacts_) {
+    *error = "cannot write trajectory.csv and contacts.csv in '" + dir + "'";
+    return false;
+  }
+  WriteTrajectoryHeader(trajectory_, w);
+  WriteTrajectoryRow(trajectory_, w);  // the start, step 0
+  contacts_ << "step,t_s,body_a,body_b,contacts,stick,slip,separating,fn_N,ft_N,penetration_before_m,"
+               "penetration_after_m\n";
+  return true;
+}
+
+void StepFiles::AfterStep(const World& w) {
+  if (w.step_count % every_ != 0) return;
+  WriteTrajectoryRow(trajectory_, w);
+  if (w.profile.rejected) return;
+  std::vector<PairTotals> pairs;
+  for (const ContactRow& row : w.rows) {
+    const int a = std::min(row.contact.body[0], row.contact.body[1]), b = std::max(row.contact.body[0], row.contact.body[1]);
+    auto it = std::find_if(pairs.begin(), pairs.end(), [&](const PairTotals& p) { return p.a == a && p.b == b; });
+    if (it == pairs.end()) it = pairs.insert(pairs.end(), PairTotals{a, b});
+    Add(&*it, w, row);
+  }
+  std::sort(pairs.begin(), pairs.end(), [](const PairTotals& x, const PairTotals& y) {
+    return x.a != y.a ? x.a < y.a : x.b < y.b;
+  });
+  for (const PairTotals& p : pairs) {
+    contacts_ << w.step_count;
+    Cell(contacts_, w.time, ",%.6f");
+    contacts_ << "," << w.bodies[p.a].name << "," << w.bodies[p.b].name << "," << p.contacts << "," << p.stick << ","
+              << p.slide << "," << p.separate;
+    for (double v : {p.fn, p.ft, std::max(0.0, p.before), std::max(0.0, p.after)}) Cell(contacts_, v, ",%.9g");
+    contacts_ << "\n";
+  }
+}
+
+bool StepFiles::Close(std::string* error) {
+  trajectory_.close();
+  contacts_.close();
+  if (trajectory_.fail() || contacts_.fail()) {
+    *error = "cannot write trajectory.csv or contacts.csv in '" + dir_ + "'";
+    return false;
+  }
   return true;
 }
 

@@ -1,6 +1,8 @@
 // Per-step records of a simulation run and the files and tables made from them.
 #pragma once
 
+#include <fstream>
+#include <ostream>
 #include <string>
 #include <vector>
 
@@ -19,10 +21,41 @@ struct StepRecord {
 /// Reads the contact state of the last step into a record.
 StepRecord RecordStep(const World& w);
 
-/// Writes timings.csv (one line per step), contacts.csv (one line per contact
-/// pair per step) and summary.json into `dir`, creating it. False with a message on error.
+/// Writes timings.csv (one line per step) and summary.json into `dir`, creating
+/// it (StepFiles writes the rest). False with a message on error.
 bool WriteRunOutputs(const std::string& dir, const std::string& scene_name, const std::vector<StepRecord>& steps,
                      const std::string& summary_json, std::string* error);
+
+/// trajectory.csv of run and replay: `step,t_s`, then each free body's position
+/// (`NAME_x_m`, `NAME_y_m`, `NAME_z_m`) and orientation quaternion (`NAME_qw`,
+/// `NAME_qx`, `NAME_qy`, `NAME_qz`), numbers as %.17g (exact).
+void WriteTrajectoryHeader(std::ostream& o, const World& w);
+void WriteTrajectoryRow(std::ostream& o, const World& w);
+
+/// Normal gap of a contact after the last step's solve (m; negative: penetration):
+/// q + W r, read through the bodies as the solver does, less the overlap held back.
+double PostSolveGap(const World& w, const ContactRow& row);
+
+/// What rejected the last step, for a log line: the pass-through names the bodies.
+std::string RejectText(const World& w);
+/// World::last_pass_through in words: the bodies, the step, how close the centres came.
+std::string PassThroughText(const World& w);
+
+/// The per-step files of `run --out DIR`, written as the run goes: trajectory.csv
+/// and contacts.csv (one line per step and touching body pair: contacts, stick,
+/// slip, separating, normal and tangential force, penetration before and after
+/// the solve; no line for a rejected step), each every `every` steps.
+class StepFiles {
+ public:
+  bool Open(const std::string& dir, const World& w, int every, std::string* error);
+  void AfterStep(const World& w);
+  bool Close(std::string* error);
+
+ private:
+  std::string dir_;
+  std::ofstream trajectory_, contacts_;
+  int every_ = 1;
+};
 
 /// FNV-1a over the bits of the world's state (poses, velocities, control-point
 /// displacements, finger joints, contact forces): equal hashes mean bit-identical

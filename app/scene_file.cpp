@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "app/mesh_import.h"
+#include "app/scene_checks.h"
 #include "core/well_posed.h"
 
 #include <Eigen/Eigenvalues>
@@ -23,6 +24,13 @@ Mat3 RotationDeg(const Vec3& deg) {
   return (Eigen::AngleAxisd(r.z(), Vec3::UnitZ()) * Eigen::AngleAxisd(r.y(), Vec3::UnitY()) *
           Eigen::AngleAxisd(r.x(), Vec3::UnitX()))
       .toRotationMatrix();
+}
+
+// where a key of a mapping was given, or the mapping itself when it was not
+SceneError Site(const std::string& file, const YAML::Node& map, const char* key) {
+  const YAML::Node& cmap = map;
+  const YAML::Node n = cmap.IsMap() ? cmap[key] : YAML::Node();
+  return ErrorAt(file, n ? n : map, "");
 }
 
 // a list of exactly n finite numbers in [lo, hi]
@@ -50,6 +58,7 @@ void ReadShape(MapReader& parent, const std::string& key, const std::string& dir
     parent.Error("missing required key '" + key + "'");
     return;
   }
+  body->shape_at = ErrorAt(parent.file(), node, "");
   MapReader m(node, parent.file(), key, parent.errors());
   if (!m.ok()) return;
   std::string type;
@@ -78,6 +87,7 @@ void ReadShape(MapReader& parent, const std::string& key, const std::string& dir
       std::filesystem::path p(file);
       if (p.is_relative()) p = std::filesystem::path(dir) / p;
       body->mesh_file = p.string();
+      body->shape_at = Site(parent.file(), node, "file");
       std::error_code ec;
       if (!std::filesystem::exists(p, ec)) m.Error(m.Raw("file"), "mesh file '" + p.string() + "' does not exist");
     }
@@ -169,6 +179,8 @@ void ReadBody(const YAML::Node& node, const std::string& file, const std::string
               std::vector<SceneError>* errors) {
   MapReader m(node, file, "a body", errors);
   if (!m.ok()) return;
+  b->at = ErrorAt(file, node, "");
+  b->position_at = Site(file, node, "position_m");
   BodySpec& s = b->spec;
   m.Text("name", &s.name, true);
   ReadShape(m, "shape", dir, b);
@@ -274,6 +286,8 @@ void ReadFinger(const YAML::Node& node, const std::string& file, const std::stri
   if (YAML::Node tn = m.Raw("fingertip")) {
     MapReader t(tn, file, "fingertip", errors);
     if (t.ok()) {
+      f->tip.at = ErrorAt(file, tn, "");
+      f->tip.position_at = Site(file, node, "joints_rad");
       f->tip.spec.name = f->name + "_tip";
       f->tip.spec.motion = EMotion::Fingertip;
       ReadShape(t, "shape", dir, &f->tip);
@@ -316,6 +330,7 @@ void ReadKeyframe(const YAML::Node& node, const std::string& file, SceneKeyframe
   per_name("fingertip_targets_m", [&](const std::string& name, const YAML::Node& v) {
     double x[3];
     if (ReadList(m, v, "fingertip_targets_m", 3, -kBig, kBig, x)) k->tip_targets[name] = Vec3(x[0], x[1], x[2]);
+    k->tip_target_at[name] = ErrorAt(file, v, "");
   });
   per_name("body_targets", [&](const std::string& name, const YAML::Node& v) {
     MapReader b(v, file, "a body target", errors);
@@ -335,6 +350,7 @@ bool Parse(const YAML::Node& root, const std::string& file, Scene* s, std::vecto
   MapReader m(root, file, "the scene", errors);
   if (!m.ok()) return false;
   s->file = file;
+  s->timestep_at = Site(file, root, "timestep_s");
   m.Text("scene", &s->name, true);
   m.Text("description", &s->description, false);
   m.Number("timestep_s", &s->params.dt, 0, 0.1, true, true);
@@ -518,33 +534,46 @@ bool LoadScene(const std::string& path, Scene* out, std::vector<SceneError>* err
   return LoadSceneFromString(ss.str(), path, out, errors);
 }
 
-bool BuildScene(const Scene& scene, BuiltScene* out, std::string* error) {
-  World& w = out->world;
-  out->name = scene.name;
-  out->duration = scene.duration;
-  w.params = scene.params;
-  auto add = [&](const SceneBody& b) -> int {
-    BodySpec spec = b.spec;
-    TriangleMesh mesh;
-    if (b.spec.shape.type == EShape::Mesh && !b.spec.is_plane) {
-      std::string err;
-      if (!ImportMesh(b.mesh_file, b.mesh_scale, &mesh, &err)) {
-        *error = scene.file + ": body '" + b.spec.name + "': " + err;
-        return -1;
-      }
-      spec.mesh = &mesh;
+namespace {
+
+SceneError With(SceneError at, const std::string& message) {
+  at.message = message;
+  return at;
+}
+
+// the scene body of each world body (bodies, then fingertips)
+std::vector<const SceneBody*> SceneBodies(const Scene& scene) {
+  std::vector<const SceneBody*> all;
+  for (const SceneBody& b : scene.bodies) all.push_back(&b);
+  for (const SceneFinger& f : scene.fingers) all.push_back(&f.tip);
+  return all;
+}
+
+int AddSceneBody(World& w, const SceneBody& b, std::vector<SceneError>* errors) {
+  BodySpec spec = b.spec;
+  TriangleMesh mesh;
+  if (b.spec.shape.type == EShape::Mesh && !b.spec.is_plane) {
+    std::string err;
+    if (!ImportMesh(b.mesh_file, b.mesh_scale, &mesh, &err)) {
+      errors->push_back(With(b.shape_at, "body '" + b.spec.name + "': " + err));
+      return -1;
     }
-    EGeometryError ge;
-    const int index = AddBody(w, spec, &ge);
-    if (index < 0) *error = scene.file + ": body '" + b.spec.name + "': " + ToString(ge);
-    return index;
-  };
-  for (const SceneBody& b : scene.bodies)
-    if (add(b) < 0) return false;
+    spec.mesh = &mesh;
+  }
+  EGeometryError ge;
+  const int index = AddBody(w, spec, &ge);
+  if (index < 0) errors->push_back(With(b.shape_at, "body '" + b.spec.name + "': " + ToString(ge)));
+  return index;
+}
+
+// every body and finger; false when a body could not be built
+bool AddBodiesAndFingers(const Scene& scene, World& w, std::vector<SceneError>* errors) {
+  bool ok = true;
+  for (const SceneBody& b : scene.bodies) ok &= AddSceneBody(w, b, errors) >= 0;
   w.hand.pose = scene.hand_pose;
   for (const SceneFinger& sf : scene.fingers) {
-    const int tip = add(sf.tip);
-    if (tip < 0) return false;
+    const int tip = AddSceneBody(w, sf.tip, errors);
+    ok &= tip >= 0;
     Finger f;
     f.name = sf.name;
     f.model = sf.model;
@@ -555,84 +584,128 @@ bool BuildScene(const Scene& scene, BuiltScene* out, std::string* error) {
     f.body = tip;
     w.hand.fingers.push_back(f);
   }
+  return ok;
+}
+
+// the MLS bandwidth against the sampled spacing
+void CheckBandwidths(const std::vector<const SceneBody*>& scene_bodies, const World& w,
+                     std::vector<SceneError>* errors) {
+  for (size_t i = 0; i < scene_bodies.size(); ++i) {
+    const SceneBody& sb = *scene_bodies[i];
+    const Body& b = w.bodies[i];
+    if (sb.spec.is_plane || !(sb.spec.geometry.bandwidth > 0)) continue;
+    const double ratio = sb.spec.geometry.bandwidth / b.geometry.spacing;
+    if (ratio >= kMinBandwidthSpacings && ratio <= kMaxBandwidthSpacings) continue;
+    std::ostringstream s;
+    s << "body '" << b.name << "': 'kernel_bandwidth_m' = " << sb.spec.geometry.bandwidth << " m is " << ratio
+      << " times the mean point spacing (" << b.geometry.spacing << " m); expected " << kMinBandwidthSpacings << " to "
+      << kMaxBandwidthSpacings
+      << " times it: narrower, the MLS fits find too few points and contacts are lost; wider, the surface is "
+         "smoothed away and every leaf overlaps its neighbours. Use kernel_bandwidth_m = "
+      << 1.5 * b.geometry.spacing << " (1.5 spacings, the default when it is left out)";
+    errors->push_back(With(sb.bandwidth_at, s.str()));
+  }
+}
+
+// the time step and starting overlaps (app/scene_checks.h), and the core's check of
+// every parameter the step divides by or inverts (a backstop: the parser checks them)
+void CheckWellPosed(const Scene& scene, const std::vector<const SceneBody*>& scene_bodies, const World& w,
+                    std::vector<SceneError>* errors) {
+  for (const IllPosed& p : FindIllPosed(w)) {
+    const SceneError& at = p.site == IllPosed::ESite::TimeStep ? scene.timestep_at : scene_bodies[p.other]->position_at;
+    errors->push_back(With(at, p.message));
+  }
+  const std::string why = WellPosedError(w);
+  if (why.empty()) return;
+  SceneError at{scene.file, 0, 0, ""};
+  for (const SceneBody* sb : scene_bodies)
+    if (why.rfind("body '" + sb->spec.name + "'", 0) == 0) at = sb->at;
+  errors->push_back(With(at, "the scene is ill-posed: " + why));
+}
+
+// fingertip targets become joint targets by inverse kinematics, each solved from the
+// previous keyframe's joints of that finger; an unreachable target is an error
+void BuildScript(const Scene& scene, World& w, ScriptPlayer* script, std::vector<SceneError>* errors) {
   auto body_index = [&](const std::string& name) {
     for (size_t i = 0; i < w.bodies.size(); ++i)
       if (w.bodies[i].name == name) return static_cast<int>(i);
     return -1;
   };
-  w.Finalize();
-  for (const Scene::Pair& p : scene.friction_pairs) w.SetFriction(body_index(p.a), body_index(p.b), p.mu);
-  // what the file alone cannot show: the MLS bandwidth against the sampled spacing,
-  // and the core's own check of every parameter the step divides by or inverts
-  std::vector<std::pair<const SceneBody*, const Body*>> with_body;
-  for (size_t i = 0; i < scene.bodies.size(); ++i) with_body.emplace_back(&scene.bodies[i], &w.bodies[i]);
-  for (size_t f = 0; f < scene.fingers.size(); ++f)
-    with_body.emplace_back(&scene.fingers[f].tip, &w.bodies[w.hand.fingers[f].body]);
-  for (const auto& [sbp, bp] : with_body) {
-    const SceneBody& sb = *sbp;
-    const Body& b = *bp;
-    if (sb.spec.is_plane || !(sb.spec.geometry.bandwidth > 0)) continue;
-    const double ratio = sb.spec.geometry.bandwidth / b.geometry.spacing;
-    if (ratio < kMinBandwidthSpacings || ratio > kMaxBandwidthSpacings) {
-      std::ostringstream s;
-      SceneError e = sb.bandwidth_at;
-      s << "body '" << b.name << "': 'kernel_bandwidth_m' = " << sb.spec.geometry.bandwidth << " m is " << ratio
-        << " times the mean point spacing (" << b.geometry.spacing << " m); expected " << kMinBandwidthSpacings
-        << " to " << kMaxBandwidthSpacings
-        << " times it (the default is 1.5): narrower, the MLS fits find too few points and contacts are lost; "
-           "wider, the surface is smoothed away and every leaf overlaps its neighbours";
-      e.message = s.str();
-      *error = e.Format();
-      return false;
-    }
-  }
-  if (const std::string why = WellPosedError(w); !why.empty()) {
-    *error = scene.file + ": the scene is ill-posed: " + why;
-    return false;
-  }
-
-  // the script: fingertip targets become joint targets by inverse kinematics,
-  // each solved from the previous keyframe's joints of that finger
   std::vector<Vec4> last(w.hand.fingers.size());
   for (size_t f = 0; f < w.hand.fingers.size(); ++f) last[f] = w.hand.fingers[f].q;
   for (const SceneKeyframe& k : scene.script) {
-    if (k.has_hand) out->script.SetHandPosition(k.time, k.hand_position);
+    if (k.has_hand) script->SetHandPosition(k.time, k.hand_position);
     for (size_t f = 0; f < w.hand.fingers.size(); ++f) {
       const Finger& fg = w.hand.fingers[f];
       if (auto it = k.joints.find(fg.name); it != k.joints.end()) {
         last[f] = it->second;
-        out->script.SetFingerJoints(static_cast<int>(f), k.time, it->second);
+        script->SetFingerJoints(static_cast<int>(f), k.time, it->second);
       } else if (auto jt = k.tip_targets.find(fg.name); jt != k.tip_targets.end()) {
         Vec4 q;
         const double residual = FingerInverse(fg.model, jt->second, last[f], &q);
         if (residual > 1e-3) {
+          const Vec3 reach = FingerForward(fg.model, Pose(), q).tip.t;
           std::ostringstream s;
-          s << scene.file << ": script at " << k.time << " s: finger '" << fg.name << "' cannot reach its fingertip target ("
-            << residual * 1e3 << " mm short within its joint limits)";
-          *error = s.str();
-          return false;
+          s << "script at " << k.time << " s: finger '" << fg.name << "' cannot reach its fingertip target ("
+            << residual * 1e3 << " mm short within its joint limits). Use a target it reaches, such as [" << reach.x()
+            << ", " << reach.y() << ", " << reach.z() << "] m (where the inverse kinematics stopped), or move the hand";
+          errors->push_back(With(k.tip_target_at.at(fg.name), s.str()));
         }
         last[f] = q;
-        out->script.SetFingerJoints(static_cast<int>(f), k.time, q);
+        script->SetFingerJoints(static_cast<int>(f), k.time, q);
       }
     }
-    for (const auto& [name, pose] : k.body_targets) out->script.SetBodyTarget(body_index(name), k.time, pose);
+    for (const auto& [name, pose] : k.body_targets) script->SetBodyTarget(body_index(name), k.time, pose);
   }
+}
+
+}  // namespace
+
+bool BuildScene(const Scene& scene, BuiltScene* out, std::vector<SceneError>* errors) {
+  const size_t errors_before = errors->size();
+  World& w = out->world;
+  out->name = scene.name;
+  out->duration = scene.duration;
+  w.params = scene.params;
+  if (!AddBodiesAndFingers(scene, w, errors)) return false;
+  w.Finalize();
+  for (const Scene::Pair& p : scene.friction_pairs) {
+    int a = -1, b = -1;
+    for (size_t i = 0; i < w.bodies.size(); ++i) {
+      if (w.bodies[i].name == p.a) a = static_cast<int>(i);
+      if (w.bodies[i].name == p.b) b = static_cast<int>(i);
+    }
+    w.SetFriction(a, b, p.mu);
+  }
+  const std::vector<const SceneBody*> scene_bodies = SceneBodies(scene);
+  CheckBandwidths(scene_bodies, w, errors);
+  CheckWellPosed(scene, scene_bodies, w, errors);
+  BuildScript(scene, w, &out->script, errors);
   out->tracked_body = -1;
   for (size_t i = 0; i < w.bodies.size(); ++i)
     if (w.bodies[i].motion == EMotion::Free) {
       out->tracked_body = static_cast<int>(i);
       break;
     }
-  // the first keyframe's targets hold from the start
-  out->script.Apply(w, 0.0);
   out->has_tracker = scene.has_tracker;
   out->tracker = scene.tracker;
   out->has_camera = scene.has_camera;
   out->camera = scene.camera;
-  if (scene.has_tracker && !ResolveTracker(w, &out->tracker, error)) return false;
-  for (Finger& f : w.hand.fingers) (void)f;
+  std::string error;
+  if (scene.has_tracker && !ResolveTracker(w, &out->tracker, &error)) errors->push_back({scene.file, 0, 0, error});
+  if (errors->size() != errors_before) return false;
+  // the first keyframe's targets hold from the start
+  out->script.Apply(w, 0.0);
   return true;
+}
+
+bool BuildScene(const Scene& scene, BuiltScene* out, std::string* error) {
+  std::vector<SceneError> errors;
+  if (BuildScene(scene, out, &errors)) return true;
+  std::string all;
+  for (const SceneError& e : errors) all += (all.empty() ? "" : "\n") + e.Format();
+  *error = all;
+  return false;
 }
 
 bool LoadAndBuildScene(const std::string& path, BuiltScene* out, std::string* error) {

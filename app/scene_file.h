@@ -20,6 +20,9 @@ struct SceneBody {
   double mesh_scale = 1.0;
   bool has_drive = false;
   SceneError bandwidth_at;  ///< where kernel_bandwidth_m was given (checked against the spacing at build)
+  SceneError at;            ///< the body's (or fingertip's) mapping
+  SceneError position_at;   ///< its position_m (the mapping when not given; a fingertip's: its finger's joints)
+  SceneError shape_at;      ///< its shape (a mesh's: the file key)
 };
 
 struct SceneFinger {
@@ -37,6 +40,7 @@ struct SceneKeyframe {
   std::map<std::string, Vec4> joints;           ///< per finger
   std::map<std::string, Vec3> tip_targets;      ///< per finger, hand frame (inverse kinematics)
   std::map<std::string, Pose> body_targets;     ///< per body
+  std::map<std::string, SceneError> tip_target_at;  ///< where each fingertip target was given
 };
 
 /// The scene's optional `camera:` section (docs/render.md); what is not given comes
@@ -50,6 +54,7 @@ struct SceneCamera {
 
 struct Scene {
   std::string file, name, description;
+  SceneError timestep_at;  ///< where timestep_s was given
   WorldParams params;
   double duration = 1.0;
   std::vector<SceneBody> bodies;
@@ -93,7 +98,12 @@ void ReadTrackerSection(const YAML::Node& node, const std::string& file, Scene* 
 /// Resolves the tracked fingertips' body indices in a built world.
 bool ResolveTracker(World& w, tracking::TrackerConfig* c, std::string* error);
 
-/// Imports meshes, samples every surface, builds trees, fingers and the script.
+/// Imports meshes, samples every surface, builds trees, fingers and the script, and
+/// checks what the file alone cannot show (app/scene_checks.h, docs/scene-format.md
+/// "Checks when the scene is built"): false with every error found, each at the
+/// file, line and column it comes from. Every command that loads a scene calls it.
+bool BuildScene(const Scene& scene, BuiltScene* out, std::vector<SceneError>* errors);
+/// The same, errors formatted one per line.
 bool BuildScene(const Scene& scene, BuiltScene* out, std::string* error);
 /// LoadScene + BuildScene, errors formatted one per line.
 bool LoadAndBuildScene(const std::string& path, BuiltScene* out, std::string* error);

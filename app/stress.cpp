@@ -8,6 +8,7 @@
 #include <memory>
 #include <random>
 
+#include "app/run_report.h"
 #include "app/scene_checks.h"
 #include "core/contact_jacobian.h"
 #include "core/fc_problem.h"
@@ -108,20 +109,6 @@ bool StateFinite(const World& w) {
     if (!r.r.allFinite() || !r.q.allFinite()) return false;
   if (!w.rows.empty() && !std::isfinite(w.profile.residual)) return false;
   return true;
-}
-
-// normal gap of a row after the solve: q + W r, read through the bodies as the solver does
-double PostSolveGap(const World& w, const ContactRow& row) {
-  Vec3 u = row.q + ArticulatedVelocity(w, row);
-  for (const ContactSide& s : row.side) {
-    if (s.count > 0) {
-      const Body& b = w.bodies[s.body];
-      Vec3 d = Vec3::Zero();
-      for (int k = 0; k < s.count; ++k) d += s.w[k] * b.u_acc[s.idx[k]];
-      u += s.sign * (row.frame * b.pose.Rotate(d));
-    }
-  }
-  return u[0] - row.held_back;
 }
 
 // deepest deformed control point below any plane (m, >= 0)

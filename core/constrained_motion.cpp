@@ -47,70 +47,86 @@ const char* NonFiniteStage(const World& w) {
   return nullptr;
 }
 
+// undo: back to the start of the step, deformation untouched
+// (the hand and kinematic bodies keep their prescribed poses, which free motion
+// has checked finite)
+void Undo(World& w) {
+  for (Body& b : w.bodies) {
+    if (b.motion == EMotion::Free || b.motion == EMotion::Fingertip) b.pose = b.pose_prev;
+    b.velocity.setZero();
+    b.angular_velocity.setZero();
+  }
+  for (Finger& f : w.hand.fingers) f.q = f.q_prev;
+  for (ContactRow& r : w.rows) r.r.setZero();
+  // whatever was not finite may sit outside the live points, which the next free
+  // motion alone clears: back to exactly at rest everywhere but u
+  for (Body& b : w.bodies) {
+    std::fill(b.u_free.begin(), b.u_free.end(), Vec3::Zero());
+    std::fill(b.u_acc.begin(), b.u_acc.end(), Vec3::Zero());
+  }
+}
+
+// the articulations' new joints and poses
+void MoveArticulations(World& w) {
+  const double dt = w.params.dt;
+  for (Articulation& a : w.articulations) {
+    const Vec6 dq = a.dq_free + a.dq;
+    if (a.finger >= 0) {
+      Finger& f = w.hand.fingers[a.finger];
+      f.q = ClampJoints(f.model, f.q_prev + dq.head<4>());
+      f.kin = FingerForward(f.model, w.hand.pose, f.q);
+      if (f.body >= 0) {
+        Body& b = w.bodies[f.body];
+        b.pose = f.kin.tip;
+        b.velocity = (b.pose.t - b.pose_prev.t) / dt;
+      }
+    } else {
+      Body& b = w.bodies[a.body];
+      b.pose = AdvancePose(b.pose_prev, dq);
+      b.velocity = dq.head<3>() / dt;
+      b.angular_velocity = dq.tail<3>() / dt;
+    }
+  }
+}
+
+// control points: eq. 7, and what refit needs to know (the live points: the
+// others are at rest, u = u_free = u_acc = 0, and stay unchanged)
+void MoveControlPoints(World& w) {
+  for (Body& b : w.bodies) {
+    if (!b.deform.enabled()) continue;
+    w.profile.work.deformed_points += static_cast<int>(b.live.size());
+    for (int j : b.live) {
+      const Vec3 u_new = b.u_free[j] + b.u_acc[j];
+      if ((u_new - b.u[j]).squaredNorm() > 1e-24) b.u_changed[j] = 1;
+      b.u[j] = u_new;
+    }
+    for (int j : b.live) {
+      if (!b.u_changed[j]) continue;
+      const int* idx;
+      const double* phi;
+      const int n = b.deform.Influence(j, &idx, &phi);
+      // the largest squared distance, one square root (this loop runs over the
+      // influence of every control point that moved: most of this stage's time)
+      const Vec3 uj = b.u[j];
+      double spread2 = 0.0;
+      for (int k = 0; k < n; ++k) spread2 = std::max(spread2, (b.u[idx[k]] - uj).squaredNorm());
+      b.u_spread[j] = std::sqrt(spread2);
+    }
+  }
+}
+
 }  // namespace
 
 void ConstrainedMotion(World& w) {
-  const double dt = w.params.dt;
   if (const char* why = NonFiniteStage(w)) MarkRejected(w, why);
+  if (!w.profile.rejected) {
+    MoveArticulations(w);
+    if (FindPassThrough(w)) MarkRejected(w, kPassThroughReason);
+  }
   if (w.profile.rejected) {
-    // undo: back to the start of the step, deformation untouched
-    // (the hand and kinematic bodies keep their prescribed poses, which free motion
-    // has checked finite)
-    for (Body& b : w.bodies) {
-      if (b.motion == EMotion::Free || b.motion == EMotion::Fingertip) b.pose = b.pose_prev;
-      b.velocity.setZero();
-      b.angular_velocity.setZero();
-    }
-    for (Finger& f : w.hand.fingers) f.q = f.q_prev;
-    for (ContactRow& r : w.rows) r.r.setZero();
-    // whatever was not finite may sit outside the live points, which the next free
-    // motion alone clears: back to exactly at rest everywhere but u
-    for (Body& b : w.bodies) {
-      std::fill(b.u_free.begin(), b.u_free.end(), Vec3::Zero());
-      std::fill(b.u_acc.begin(), b.u_acc.end(), Vec3::Zero());
-    }
+    Undo(w);
   } else {
-    for (Articulation& a : w.articulations) {
-      const Vec6 dq = a.dq_free + a.dq;
-      if (a.finger >= 0) {
-        Finger& f = w.hand.fingers[a.finger];
-        f.q = ClampJoints(f.model, f.q_prev + dq.head<4>());
-        f.kin = FingerForward(f.model, w.hand.pose, f.q);
-        if (f.body >= 0) {
-          Body& b = w.bodies[f.body];
-          b.pose = f.kin.tip;
-          b.velocity = (b.pose.t - b.pose_prev.t) / dt;
-        }
-      } else {
-        Body& b = w.bodies[a.body];
-        b.pose = AdvancePose(b.pose_prev, dq);
-        b.velocity = dq.head<3>() / dt;
-        b.angular_velocity = dq.tail<3>() / dt;
-      }
-    }
-    // control points: eq. 7, and what refit needs to know (the live points: the
-    // others are at rest, u = u_free = u_acc = 0, and stay unchanged)
-    for (Body& b : w.bodies) {
-      if (!b.deform.enabled()) continue;
-      w.profile.work.deformed_points += static_cast<int>(b.live.size());
-      for (int j : b.live) {
-        const Vec3 u_new = b.u_free[j] + b.u_acc[j];
-        if ((u_new - b.u[j]).squaredNorm() > 1e-24) b.u_changed[j] = 1;
-        b.u[j] = u_new;
-      }
-      for (int j : b.live) {
-        if (!b.u_changed[j]) continue;
-        const int* idx;
-        const double* phi;
-        const int n = b.deform.Influence(j, &idx, &phi);
-        // the largest squared distance, one square root (this loop runs over the
-        // influence of every control point that moved: most of this stage's time)
-        const Vec3 uj = b.u[j];
-        double spread2 = 0.0;
-        for (int k = 0; k < n; ++k) spread2 = std::max(spread2, (b.u[idx[k]] - uj).squaredNorm());
-        b.u_spread[j] = std::sqrt(spread2);
-      }
-    }
+    MoveControlPoints(w);
   }
   // the end of this step is the start of the next
   for (Body& b : w.bodies) b.pose_prev = b.pose;

@@ -133,6 +133,7 @@ void World::Finalize() {
     b.rest_time = 0.0;
     b.contact_count = b.contact_count_prev = 0;
     b.pose_detected = b.sleep_pose = b.pose;
+    b.core_radius = b.geometry.is_plane ? 0.0 : CoreRadius(b.geometry);
   }
   for (size_t f = 0; f < hand.fingers.size(); ++f) {
     Finger& fg = hand.fingers[f];
@@ -215,6 +216,7 @@ void World::Step() {
   time += params.dt;
   ++step_count;
   if (profile.rejected) ++rejected_steps;
+  if (profile.rejected && profile.reject_reason == kPassThroughReason) ++pass_through_steps;
   if (!profile.converged) ++unconverged_steps;
   if (profile.budget_stopped) ++budget_stopped_steps;
   if (profile.solve_skipped) ++skipped_solves;

@@ -110,6 +110,9 @@ struct Body {
   Pose sleep_pose;            ///< pose when it fell asleep (moving away from it wakes it)
   Drive sleep_drive;          ///< drive when it fell asleep (a change wakes it)
   Pose pose_detected;         ///< pose at the last collision detection (reused contacts move from there)
+  /// radius of a ball about the body origin that lies inside the rest surface (m);
+  /// 0 when the origin is not inside it (the pass-through check skips the body)
+  double core_radius = 0.0;
   CollisionShape Shape() const;
 };
 
@@ -307,6 +310,16 @@ struct StepProfile {
   StepWork work;
 };
 
+/// A body that passed through another during a step (FindPassThrough): the centre
+/// of one came inside the other's core ball (Body::core_radius), or below a plane.
+struct PassThrough {
+  int body = -1, other = -1;  ///< `body` moved through `other` (a plane or any body)
+  int64_t step = 0;           ///< the step's number (World::step_count after it)
+  double time = 0.0;          ///< simulated time at the step's end (s)
+  double distance = 0.0;      ///< closest approach of the centres, or the centre's height over the plane (m)
+  double core = 0.0;          ///< the core radius the centre entered (m; 0 for a plane)
+};
+
 class World {
  public:
   WorldParams params;
@@ -322,6 +335,8 @@ class World {
   int64_t unconverged_steps = 0;
   int64_t budget_stopped_steps = 0;  ///< of the unconverged steps, those ended by the time budget
   int64_t skipped_solves = 0;        ///< of those, steps that did not sweep (StepProfile::solve_skipped)
+  int64_t pass_through_steps = 0;    ///< of the rejected steps, those where a body passed through another
+  PassThrough last_pass_through;     ///< the last of them
 
   /// Friction coefficient of a body pair (default unless set).
   double Friction(int a, int b) const;
@@ -416,6 +431,20 @@ void SolveContacts(World& w);
 void ConstrainedMotion(World& w);
 /// Marks the step as rejected (undone by ConstrainedMotion); the first reason is kept.
 void MarkRejected(World& w, const char* reason);
+/// The reject reason of a step in which a body passed through another.
+extern const char* const kPassThroughReason;
+
+/// Radius of the largest ball about the body origin inside the sampled rest surface
+/// (m): the distance to the nearest surface point when that point's normal faces away
+/// from the origin, else 0 (the origin lies outside the surface).
+double CoreRadius(const BodyGeometry& g);
+/// Pass-through check of constrained motion, on the poses the step is about to
+/// accept (Body::pose) against its start (pose_prev): true, with
+/// w.last_pass_through set, when over the step (centres moving on straight lines)
+/// the centre of a moving body entered the core ball of another body it can touch
+/// (closer than the larger of the two core radii) or went below a plane. A pair
+/// that starts that close is not counted again. No allocation; O(bodies^2).
+bool FindPassThrough(World& w);
 
 /// The last step's contact problem with W assembled explicitly, column by column
 /// through the same matrix-free operator the solver uses (for export and checks:
