@@ -7,7 +7,6 @@
 
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <vector>
 
 #include "core/fc_problem.h"
@@ -91,33 +90,36 @@ int TotalSweeps(const Trace& t) {
 // Every mass x 2^n scales every force by 2^n exactly in floating point (W / 2^n,
 // r x 2^n): the runs must be bit-identical, which any threshold that mixes force
 // and gap units (in the stopping test, the local solver) would break. Other factors
-// round differently in the last bit: the same sweeps, trajectories within round-off
-// (amplified only where a contact flips state during the landing).
+// round differently in the last bit: trajectories within round-off (amplified where
+// a contact flips state in the landing), and about the same sweeps (these statically
+// indeterminate contacts' forces are not unique, so a last-bit difference can move a
+// step's stop by a sweep). Mass ratio 1: the sweeps converge below the cap.
 TEST(Scale, EveryMassTimesKGivesTheSameTrajectoryAndSweeps) {
   const int steps = 400;  // the landing and 0.35 s at rest
-  const Trace base = RunStack(10.0, 1.0, EStopMeasure::Scaled, steps);
+  const Trace base = RunStack(1.0, 1.0, EStopMeasure::Scaled, steps);
+  ASSERT_LT(TotalSweeps(base), 100 * steps / 2);  // not every step at the cap
   for (const double k : {8.0, 1024.0}) {
-    const Trace t = RunStack(10.0, k, EStopMeasure::Scaled, steps);
+    const Trace t = RunStack(1.0, k, EStopMeasure::Scaled, steps);
     EXPECT_EQ(t.force, k * base.force) << k;
     EXPECT_EQ(MaxGap(base, t), 0.0) << k;
     EXPECT_EQ(Mismatches(base, t), 0) << k;
   }
   for (const double k : {10.0, 1000.0}) {
-    const Trace t = RunStack(10.0, k, EStopMeasure::Scaled, steps);
+    const Trace t = RunStack(1.0, k, EStopMeasure::Scaled, steps);
     EXPECT_NEAR(t.force, k * base.force, 1e-4 * k * base.force) << k;
     EXPECT_LT(MaxGap(base, t), 1e-8) << k;
-    EXPECT_EQ(Mismatches(base, t), 0) << k;
+    EXPECT_NEAR(TotalSweeps(t), TotalSweeps(base), 0.05 * TotalSweeps(base)) << k;
   }
 }
 
-// The same scenes stopped on Siconos' measure: a different number of sweeps (the
-// tolerance means something else at another mass scale).
+// The same scene stopped on Siconos' measure: at x1000 the tolerance means a
+// thousand times more slip per step, and the sweeps show it.
 TEST(Scale, SiconosMeasureIsNotScaleInvariant) {
   const int steps = 400;
-  const Trace base = RunStack(10.0, 1.0, EStopMeasure::Siconos, steps);
-  const Trace heavy = RunStack(10.0, 1000.0, EStopMeasure::Siconos, steps);
+  const Trace base = RunStack(1.0, 1.0, EStopMeasure::Siconos, steps);
+  const Trace heavy = RunStack(1.0, 1024.0, EStopMeasure::Siconos, steps);
   EXPECT_GT(Mismatches(base, heavy), steps / 10);
-  EXPECT_NE(TotalSweeps(base), TotalSweeps(heavy));
+  EXPECT_GT(MaxGap(base, heavy), 0.0);
 }
 
 // Horizontal speed (m/s) of the faster box over `seconds` after `settle` s, at the
@@ -129,7 +131,6 @@ double Walk(double ratio, EStopMeasure measure, double settle, double seconds, i
   s.w.params.solver.max_iterations = max_iterations;
   s.w.params.solver.over_relaxation = omega;
   s.w.params.solver.order = order;
-  if (const char* t = std::getenv("TOL")) s.w.params.solver.tolerance = std::atof(t);
   const int n0 = static_cast<int>(settle / s.w.params.dt), n1 = static_cast<int>(seconds / s.w.params.dt);
   for (int i = 0; i < n0; ++i) s.w.Step();
   const Vec3 b0 = s.w.bodies[s.bottom].pose.t, t0 = s.w.bodies[s.top].pose.t;
@@ -157,17 +158,6 @@ TEST(Scale, HeavyOnLightStacksStandAtTheDefaultTolerance) {
   EXPECT_EQ(unconverged, 0);
   walk = Walk(10.0, EStopMeasure::Siconos, 0.3, 0.7, &unconverged, 1000);
   EXPECT_GT(walk, 1e-6);
-}
-
-TEST(Scale, DISABLED_Explore) {
-  const double ratio = std::atof(std::getenv("R"));
-  const int cap = std::atoi(std::getenv("CAP"));
-  const double omega = std::atof(std::getenv("OMEGA"));
-  const ESweepOrder order = std::getenv("ALT") ? ESweepOrder::Alternating : ESweepOrder::Forward;
-  int unconverged = 0;
-  const double walk = Walk(ratio, std::getenv("SICONOS") ? EStopMeasure::Siconos : EStopMeasure::Scaled, 0.3, 0.7, &unconverged, cap, omega, order);
-  std::printf("ratio %g cap %d omega %g alt %d: walk %.3g m/s, %d unconverged\n", ratio, cap, omega,
-              order == ESweepOrder::Alternating, walk, unconverged);
 }
 
 // The measure itself, on an explicit problem: W / k and k r give the same scaled
