@@ -89,7 +89,8 @@ struct NsgsParams {
   /// iterate) plus what the sweep's own force changes dr can have moved it, from
   /// |u_final - u_read| <= |W|_F |dr| <= 2 tr(W) |dr| (W positive semi-definite;
   /// the factor 2 covers the truncated kernel) and the local error being
-  /// 2-Lipschitz in r and (1 + mu)-Lipschitz in u. The reported error is then that
+  /// 2-Lipschitz in r (in r~ = w_c r for the scaled measure: the term is then
+  /// 2 |D dr|) and (1 + mu)-Lipschitz in u. The reported error is then that
   /// bound, at least the exact error (`error_bounded`). A step at rest (dr ~ 0)
   /// saves its exact pass, a third of its solve. A solve stopped by its time budget
   /// with no time left for the exact pass either skips it and reports the in-sweep
