@@ -249,7 +249,7 @@ void PrintPaperTables(const std::vector<StepRecord>& steps) {
   std::printf("  %-32s %10.0f %10.0f %12d\n", "Gauss-Seidel iterations", Median(it), Max(it), 5);
   std::printf("  %-32s %10.3f %10.3f %12.3f\n", "Gauss-Seidel resolution (ms)", Median(gs), Max(gs), 5.410);
   std::printf("  %-32s %10.3f %10.3f %12.3f\n", "Total time (ms)", Median(total), Max(total), 43.060);
-  std::printf("  %-32s %10.2e %10.2e %12s\n", "Residual (Siconos measure)", Median(res), Max(res), "-");
+  std::printf("  %-32s %10.2e %10.2e %12s\n", "Residual (stopping measure)", Median(res), Max(res), "-");
   std::printf("\nWhole step (ms): median %.3f, max %.3f (paper: 53 ms at its deepest grasp)\n", Median(step),
               Max(step));
 }

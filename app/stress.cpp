@@ -199,17 +199,22 @@ StressResult Run(World& w, const CaseSpec& c) {
     r.energy_growth = std::max(r.energy_growth, PassiveEnergy(w) - e0);
     for (const Body& b : w.bodies)
       if (b.motion == EMotion::Free) r.speed_max = std::max(r.speed_max, b.velocity.norm());
-    // spot check: the reported residual is the Siconos error of the step's problem
+    // spot check: the reported residuals are the measures of the step's problem
     // (a budget-stopped step's estimate is not checked: stress sets no step budget)
     if (check_every > 0 && (i + 1) % check_every == 0 && p.contacts > 0 && !p.rejected && !p.residual_estimated) {
       FcProblem prob;
       Eigen::VectorXd forces;
       AssembleContactProblem(w, &prob, &forces);
-      const double recomputed = FcError(prob, forces);
+      const bool scaled = w.params.solver.measure == EStopMeasure::Scaled;
+      const double recomputed = scaled ? FcScaledError(prob, forces, StepGapScale(w.params)) : FcError(prob, forces);
       // a bounded residual must be at least the error (and at most the tolerance,
-      // checked above); an exact one must be the error
-      const double off = p.residual_bounded ? std::max(0.0, recomputed - p.residual) : std::abs(recomputed - p.residual);
-      r.residual_check = std::max(r.residual_check, off / std::max(recomputed, tol));
+      // checked above); an exact one must be the error; the same for Siconos' measure
+      const auto off = [&p](double exact, double reported) {
+        return p.residual_bounded ? std::max(0.0, exact - reported) : std::abs(exact - reported);
+      };
+      const double siconos = FcError(prob, forces);
+      r.residual_check = std::max({r.residual_check, off(recomputed, p.residual) / std::max(recomputed, tol),
+                                   off(siconos, p.residual_siconos) / std::max(siconos, tol)});
     }
   }
   r.expectation_ok = true;

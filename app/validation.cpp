@@ -17,6 +17,8 @@ const Family kFamilies[] = {
     {"pinch", ValidatePinch},
     {"hertz", ValidateHertz},
     {"paper-grasp", ValidatePaperGrasp},
+    {"stack", ValidateStack},
+    {"scale", ValidateScale},
 };
 
 }  // namespace

@@ -33,6 +33,12 @@ std::vector<ValidationResult> ValidateHertz(const ValidationOptions& opt);
 /// of the lift height through the hold phase; every step's residual is reported.
 std::vector<ValidationResult> ValidatePaperGrasp(const ValidationOptions& opt);
 
+/// A heavy box 5 mm off-centre on a light one (mass ratios 1 to 1,000), friction,
+/// default solver settings: neither box may walk faster than 1 um/s.
+std::vector<ValidationResult> ValidateStack(const ValidationOptions& opt);
+/// The stack with every mass x10 and x1000: the same trajectory and sweeps.
+std::vector<ValidationResult> ValidateScale(const ValidationOptions& opt);
+
 /// Names accepted by `graspsim validate`.
 std::vector<std::string> ValidationNames();
 /// Runs one by name ("all" for every one); false when the name is unknown.

@@ -50,6 +50,14 @@ double FcError(const FcProblem& p, const Eigen::VectorXd& r) {
   return SiconosError(op, reinterpret_cast<const Vec3*>(r.data()));
 }
 
+double FcScaledError(const FcProblem& p, const Eigen::VectorXd& r, double gap_scale) {
+  SparseDelassus op(p);
+  NsgsParams np;
+  np.measure = EStopMeasure::Scaled;
+  np.gap_scale = gap_scale;
+  return ExactErrors(op, reinterpret_cast<const Vec3*>(r.data()), np).stop;
+}
+
 FcSolveResult SolveFcProblem(const FcProblem& p, const FcSolveParams& params, Eigen::VectorXd* r) {
   FcSolveResult out;
   const auto t0 = std::chrono::steady_clock::now();

@@ -75,6 +75,8 @@ FcSolveResult SolveFcProblem(const FcProblem& p, const FcSolveParams& params, Ei
 
 /// The Siconos error of r for the problem.
 double FcError(const FcProblem& p, const Eigen::VectorXd& r);
+/// The scaled measure of r (core/nsgs.h, EStopMeasure::Scaled), gap_scale in m.
+double FcScaledError(const FcProblem& p, const Eigen::VectorXd& r, double gap_scale);
 
 /// A random rigid-body problem: boxes on a grid in stacks of `layers`, each
 /// resting on the one below (the bottom one on the ground) through 4 corner

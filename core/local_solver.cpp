@@ -122,11 +122,15 @@ ELocalCase SolveLocalCoulomb(const Mat3& W, const Vec3& q, double mu, Vec3* r, d
     const SlideEval e = EvalSlide(W, q, mu, a);
     if (!(e.rn > 0.0) || e.along > 0.0) return std::numeric_limits<double>::infinity();
     *out = Vec3(e.rn, e.rn * mu * std::cos(a), e.rn * mu * std::sin(a));
-    return LocalErrorSquared(*out, W * *out + q, mu);
+    // forces as gaps (wnn r), so that the test below means the same at every
+    // force scale (scaling the masses by k scales W by 1/k and r by k)
+    const Vec3 x = *out;
+    return LocalErrorSquared(wnn * x, W * x + q, mu);
   };
+  const double exact = 1e-24 * q.squaredNorm() + 1e-300;  // an exact root, relative to the free gap
   // first guess: the hint, else friction opposing the stick solution's excess
   double a0 = angle_hint && std::isfinite(*angle_hint) ? *angle_hint : std::atan2(rs[2], rs[1]);
-  Vec3 cand;
+  Vec3 cand = Vec3::Zero();
   double err_best = std::numeric_limits<double>::infinity();
   Vec3 r_best = Vec3::Zero();
   double a_best = a0;
@@ -135,7 +139,7 @@ ELocalCase SolveLocalCoulomb(const Mat3& W, const Vec3& q, double mu, Vec3* r, d
     double root;
     if (NewtonAngle(W, q, mu, a0, &root)) {
       const double err = best_error(root, &cand);
-      if (err <= 1e-24 * (1.0 + q.squaredNorm())) {
+      if (err <= exact) {
         err_best = err;
         r_best = cand;
         a_best = root;
@@ -143,7 +147,7 @@ ELocalCase SolveLocalCoulomb(const Mat3& W, const Vec3& q, double mu, Vec3* r, d
     }
   }
   // else a local bracket around the guess, then a full scan
-  for (int pass = 0; pass < 2 && err_best > 1e-24 * (1.0 + q.squaredNorm()); ++pass) {
+  for (int pass = 0; pass < 2 && err_best > exact; ++pass) {
     const int n = pass == 0 ? 8 : 256;
     const double span = pass == 0 ? 0.5 : 2.0 * M_PI;
     double prev_a = a0 - 0.5 * span;

@@ -8,10 +8,22 @@
 //   double Mu(int c) const;
 //   double FreeNormSquared() const;             |q|^2 over all contacts
 //
-// Stopping test. The reported error is Siconos' fc3d measure (local_solver.h) of
-// the returned forces, computed exactly in a separate pass. A sweep already
+// Stopping test, on one of two measures (NsgsParams::measure; docs/solver.md):
+//  - Siconos' fc3d measure (local_solver.h): sqrt(sum_c |e_c|^2) / max(|q|,|r|,|u|),
+//    e_c = r_c - P_K(r_c - u~_c). It adds forces (N) to gaps (m), so the gap error
+//    it accepts grows with the forces. Explicit problems (FCLIB files, benches)
+//    stop on it, to compare with Siconos.
+//  - the scaled measure: the same residual with each force turned into a gap,
+//    r~_c = w_c r_c, w_c = W_cc(0,0) (the normal compliance of the contact, m/N),
+//    divided by a fixed gap NsgsParams::gap_scale (the step sets |g| dt^2). The
+//    cone is invariant under a positive scaling per contact, so (r~, u) is the
+//    same problem; scaling every mass by k scales W by 1/k and r by k and leaves
+//    r~, u and the measure unchanged. Every contact's gap error per step is then at
+//    most tolerance x gap_scale. The simulator's step stops on it.
+// Both are computed (NsgsResult::error is the stopping measure, siconos_error
+// Siconos'), exactly in a separate pass over the returned forces. A sweep already
 // reads every contact's velocity before its local solve, so it accumulates the
-// same measure at no cost on the mixed (partly updated) iterate; the exact pass
+// same measures at no cost on the mixed (partly updated) iterate; the exact pass
 // runs only when that estimate says the tolerance may be met, and on the last
 // sweep. The in-sweep estimate tracks the exact error within a small factor.
 //
@@ -42,8 +54,25 @@ namespace gs {
 
 enum class ESweepOrder { Forward, Alternating };
 
+/// What the tolerance is compared with (see above).
+enum class EStopMeasure {
+  Siconos,  ///< fc3d_compute_error: forces and gaps mixed, relative to max(|q|, |r|, |u|)
+  Scaled,   ///< forces as gaps (W_cc(0,0) r_c), absolute, over gap_scale
+};
+
+/// The factor that turns contact c's force into a gap (m/N): its normal
+/// compliance W_cc(0,0); 0 when that is not a positive finite number.
+inline double ForceToGap(const Mat3& W) {
+  const double w = W(0, 0);
+  return (w > 0.0 && std::isfinite(w)) ? w : 0.0;
+}
+
 struct NsgsParams {
-  double tolerance = 1e-6;          ///< on the Siconos error
+  double tolerance = 1e-6;          ///< on the stopping measure (`measure`)
+  EStopMeasure measure = EStopMeasure::Siconos;
+  /// m: the denominator of the scaled measure (the step sets |g| dt^2, so that the
+  /// tolerance bounds each contact's velocity error by tolerance |g| dt); 1 when not positive
+  double gap_scale = 0.0;
   int max_iterations = 100;         ///< sweeps
   double over_relaxation = 1.0;     ///< omega: r <- r + omega (r_local - r), then projected on the cone
   ESweepOrder order = ESweepOrder::Forward;
@@ -60,7 +89,8 @@ struct NsgsParams {
   /// iterate) plus what the sweep's own force changes dr can have moved it, from
   /// |u_final - u_read| <= |W|_F |dr| <= 2 tr(W) |dr| (W positive semi-definite;
   /// the factor 2 covers the truncated kernel) and the local error being
-  /// 2-Lipschitz in r and (1 + mu)-Lipschitz in u. The reported error is then that
+  /// 2-Lipschitz in r (in r~ = w_c r for the scaled measure: the term is then
+  /// 2 |D dr|) and (1 + mu)-Lipschitz in u. The reported error is then that
   /// bound, at least the exact error (`error_bounded`). A step at rest (dr ~ 0)
   /// saves its exact pass, a third of its solve. A solve stopped by its time budget
   /// with no time left for the exact pass either skips it and reports the in-sweep
@@ -72,7 +102,10 @@ struct NsgsParams {
 
 struct NsgsResult {
   int iterations = 0;
-  double error = 0.0;  ///< Siconos fc3d error of the returned forces
+  double error = 0.0;  ///< the stopping measure (NsgsParams::measure) of the returned forces
+  /// Siconos' fc3d measure of the same forces (equal to `error` under the Siconos
+  /// measure); a bound or an estimate of it with error_bounded / error_estimated
+  double siconos_error = 0.0;
   bool converged = false;
   int exact_checks = 0;  ///< exact error passes
   int extrapolations = 0;  ///< extrapolation trials that won
@@ -115,6 +148,14 @@ struct NsgsScratch {
   void Reserve(int n) { angle.reserve(n); }
 };
 
+inline double SiconosRatio(double num, double nq, double nr, double nu) {
+  const double den = std::sqrt(std::max({nq, nr, nu}));
+  return den > 2.220446049250313e-16 ? std::sqrt(num) / den : std::sqrt(num);
+}
+
+/// The scaled measure's denominator (m).
+inline double GapScale(const NsgsParams& p) { return p.gap_scale > 0.0 ? p.gap_scale : 1.0; }
+
 /// The Siconos error of forces r (u recomputed through the operator).
 template <class Op>
 double SiconosError(const Op& op, const Vec3* r) {
@@ -126,25 +167,50 @@ double SiconosError(const Op& op, const Vec3* r) {
     nr += r[c].squaredNorm();
     nu += u.squaredNorm();
   }
-  const double nq = op.FreeNormSquared();
-  const double den = std::sqrt(std::max({nq, nr, nu}));
-  return den > 2.220446049250313e-16 ? std::sqrt(num) / den : std::sqrt(num);
+  return SiconosRatio(num, op.FreeNormSquared(), nr, nu);
+}
+
+/// Both measures of forces r, from one pass.
+struct NsgsErrors {
+  double stop = 0.0, siconos = 0.0;
+};
+
+template <class Op>
+NsgsErrors ExactErrors(const Op& op, const Vec3* r, const NsgsParams& p) {
+  if (p.measure == EStopMeasure::Siconos) {
+    const double e = SiconosError(op, r);
+    return {e, e};
+  }
+  const int n = op.NumContacts();
+  double num = 0.0, num_s = 0.0, nr = 0.0, nu = 0.0;
+  for (int c = 0; c < n; ++c) {
+    const Vec3 u = op.Velocity(c, r);
+    const double mu = op.Mu(c);
+    num += LocalErrorSquared(r[c], u, mu);
+    num_s += LocalErrorSquared(ForceToGap(op.DiagonalBlock(c)) * r[c], u, mu);
+    nr += r[c].squaredNorm();
+    nu += u.squaredNorm();
+  }
+  return {std::sqrt(num_s) / GapScale(p), SiconosRatio(num, op.FreeNormSquared(), nr, nu)};
 }
 
 /// What a sweep sums on the way: the squared local errors before each update
-/// (num), |u|^2 as read (nu), |r|^2 after the updates (nr), |dr|^2 of the updates
-/// applied, the trace of W and the largest mu.
+/// (num; num_s on the scaled forces), |u|^2 as read (nu), |r|^2 after the
+/// updates (nr), |dr|^2 of the updates applied (dr2; dr2_s scaled), the trace
+/// of W and the largest mu.
 struct NsgsSweepSums {
-  double num = 0.0, nu = 0.0, nr = 0.0, dr2 = 0.0, trace = 0.0, mu_max = 0.0;
+  double num = 0.0, num_s = 0.0, nu = 0.0, nr = 0.0, dr2 = 0.0, dr2_s = 0.0, trace = 0.0, mu_max = 0.0;
 };
 
-/// One local update of contact c, added to the sums.
+/// One local update of contact c, added to the sums (the scaled ones when `scaled`).
 template <class Op>
-inline void NsgsUpdate(Op& op, Vec3* r, int c, double omega, double* angle, NsgsSweepSums* s) {
+inline void NsgsUpdate(Op& op, Vec3* r, int c, double omega, bool scaled, double* angle, NsgsSweepSums* s) {
   const Mat3 W = op.DiagonalBlock(c);
   const Vec3 u = op.Velocity(c, r);
   const double mu = op.Mu(c);
+  const double wc = scaled ? ForceToGap(W) : 0.0;
   s->num += LocalErrorSquared(r[c], u, mu);
+  if (scaled) s->num_s += LocalErrorSquared(wc * r[c], u, mu);
   s->nu += u.squaredNorm();
   s->trace += W.trace();
   s->mu_max = std::max(s->mu_max, mu);
@@ -158,36 +224,51 @@ inline void NsgsUpdate(Op& op, Vec3* r, int c, double omega, double* angle, Nsgs
     if (dr[0] != 0.0 || dr[1] != 0.0 || dr[2] != 0.0) op.ApplyDelta(c, dr);
     r[c] = x;
     s->dr2 += dr.squaredNorm();
+    s->dr2_s += wc * wc * dr.squaredNorm();
   }
   s->nr += r[c].squaredNorm();
 }
 
-/// One sweep over the contacts (forward, or backward when `backward`); returns
-/// the in-sweep estimate of the Siconos error (on the mixed iterate).
-template <class Op>
-double NsgsSweep(Op& op, Vec3* r, double omega, bool backward, double nq, double* angle,
-                 NsgsSweepSums* sums = nullptr) {
-  const int n = op.NumContacts();
-  NsgsSweepSums s;
-  if (!backward) {
-    for (int c = 0; c < n; ++c) NsgsUpdate(op, r, c, omega, &angle[c], &s);
-  } else {
-    for (int c = n - 1; c >= 0; --c) NsgsUpdate(op, r, c, omega, &angle[c], &s);
-  }
-  if (sums) *sums = s;
-  const double den = std::sqrt(std::max({nq, s.nr, s.nu}));
-  return den > 2.220446049250313e-16 ? std::sqrt(s.num) / den : std::sqrt(s.num);
+/// The in-sweep estimates of both measures (on the mixed iterate).
+inline NsgsErrors SweepEstimates(const NsgsSweepSums& s, double nq, const NsgsParams& p) {
+  const double siconos = SiconosRatio(s.num, nq, s.nr, s.nu);
+  if (p.measure == EStopMeasure::Siconos) return {siconos, siconos};
+  return {std::sqrt(s.num_s) / GapScale(p), siconos};
 }
 
-/// An upper bound of the exact Siconos error after a sweep with these sums (see
-/// NsgsParams::accept_error_bound); infinite when the denominator may vanish.
-inline double NsgsErrorBound(const NsgsSweepSums& s, double nq) {
+/// One sweep over the contacts (forward, or backward when `backward`); returns
+/// the in-sweep estimates.
+template <class Op>
+NsgsErrors NsgsSweep(Op& op, Vec3* r, const NsgsParams& p, bool backward, double nq, double* angle,
+                     NsgsSweepSums* sums = nullptr) {
+  const int n = op.NumContacts();
+  const double omega = p.over_relaxation;
+  const bool scaled = p.measure == EStopMeasure::Scaled;
+  NsgsSweepSums s;
+  if (!backward) {
+    for (int c = 0; c < n; ++c) NsgsUpdate(op, r, c, omega, scaled, &angle[c], &s);
+  } else {
+    for (int c = n - 1; c >= 0; --c) NsgsUpdate(op, r, c, omega, scaled, &angle[c], &s);
+  }
+  if (sums) *sums = s;
+  return SweepEstimates(s, nq, p);
+}
+
+/// Upper bounds of both exact measures after a sweep with these sums (see
+/// NsgsParams::accept_error_bound); infinite when a denominator may vanish.
+/// A sweep moves the velocities it read by at most du = |W|_F |dr| <= 2 tr(W) |dr|
+/// (the same in both measures: W r = (W D^-1)(D r)); a contact's local error is
+/// 2-Lipschitz in its (scaled) force and (1 + mu)-Lipschitz in u.
+inline NsgsErrors NsgsErrorBound(const NsgsSweepSums& s, double nq, const NsgsParams& p) {
+  const double inf = std::numeric_limits<double>::infinity();
   const double dr = std::sqrt(s.dr2);
   const double du = 2.0 * s.trace * dr;
   const double num = std::sqrt(s.num) + 2.0 * dr + (1.0 + s.mu_max) * du;
   const double den = std::max({std::sqrt(nq), std::sqrt(s.nr), std::sqrt(s.nu) - du});
-  if (!(den > 2.220446049250313e-16) || !std::isfinite(num)) return std::numeric_limits<double>::infinity();
-  return num / den;
+  const double siconos = (den > 2.220446049250313e-16 && std::isfinite(num)) ? num / den : inf;
+  if (p.measure == EStopMeasure::Siconos) return {siconos, siconos};
+  const double num_s = std::sqrt(s.num_s) + 2.0 * std::sqrt(s.dr2_s) + (1.0 + s.mu_max) * du;
+  return {std::isfinite(num_s) ? num_s / GapScale(p) : inf, siconos};
 }
 
 /// Sets the forces to x through the operator.
@@ -202,14 +283,14 @@ inline void NsgsAssign(Op& op, Vec3* r, const Vec3* x) {
 }
 
 /// One extrapolation trial (see above) from r, with r_old the forces K sweeps
-/// ago. Leaves the best candidate in r and returns its exact error.
+/// ago. Leaves the best candidate in r and returns its exact errors.
 template <class Op>
-double NsgsExtrapolate(Op& op, Vec3* r, const NsgsParams& p, NsgsScratch& s, double nq, NsgsResult* res) {
+NsgsErrors NsgsExtrapolate(Op& op, Vec3* r, const NsgsParams& p, NsgsScratch& s, double nq, NsgsResult* res) {
   const int n = op.NumContacts();
   s.r_base.assign(r, r + n);
   s.angle_base.assign(s.angle.begin(), s.angle.begin() + n);
-  NsgsSweep(op, r, p.over_relaxation, false, nq, s.angle.data());
-  double best = SiconosError(op, r);
+  NsgsSweep(op, r, p, false, nq, s.angle.data());
+  NsgsErrors best = ExactErrors(op, r, p);
   ++res->iterations;
   ++res->exact_checks;
   s.r_best.assign(r, r + n);
@@ -225,11 +306,11 @@ double NsgsExtrapolate(Op& op, Vec3* r, const NsgsParams& p, NsgsScratch& s, dou
       r[c] = x;
     }
     std::copy(s.angle_base.begin(), s.angle_base.end(), s.angle.begin());
-    NsgsSweep(op, r, p.over_relaxation, false, nq, s.angle.data());
-    const double e = SiconosError(op, r);
+    NsgsSweep(op, r, p, false, nq, s.angle.data());
+    const NsgsErrors e = ExactErrors(op, r, p);
     ++res->iterations;
     ++res->exact_checks;
-    if (e < best) {
+    if (e.stop < best.stop) {
       best = e;
       won = true;
       std::copy(r, r + n, s.r_best.begin());
@@ -240,6 +321,12 @@ double NsgsExtrapolate(Op& op, Vec3* r, const NsgsParams& p, NsgsScratch& s, dou
   std::copy(s.angle_best.begin(), s.angle_best.end(), s.angle.begin());
   if (won) ++res->extrapolations;
   return best;
+}
+
+/// Records errors e in the result (`error` the stopping measure).
+inline void SetErrors(NsgsResult* res, const NsgsErrors& e) {
+  res->error = e.stop;
+  res->siconos_error = e.siconos;
 }
 
 template <class Op>
@@ -253,7 +340,6 @@ NsgsResult SolveNsgs(Op& op, Vec3* r, const NsgsParams& p, NsgsScratch& s) {
   if (static_cast<int>(s.angle.size()) < n) s.angle.resize(n, NAN);
   std::fill(s.angle.begin(), s.angle.begin() + n, NAN);
   s.r_old.clear();
-  const double omega = p.over_relaxation;
   const double nq = op.FreeNormSquared();
   const int K = p.extrapolate_every;
   const NsgsBudget budget(p.time_budget_s);
@@ -261,29 +347,30 @@ NsgsResult SolveNsgs(Op& op, Vec3* r, const NsgsParams& p, NsgsScratch& s) {
   while (res.iterations < p.max_iterations) {
     const bool backward = p.order == ESweepOrder::Alternating && (sweep & 1);
     NsgsSweepSums sums;
-    const double estimate = NsgsSweep(op, r, omega, backward, nq, s.angle.data(), &sums);
+    const NsgsErrors estimate = NsgsSweep(op, r, p, backward, nq, s.angle.data(), &sums);
     ++sweep;
     ++res.iterations;
-    if (p.accept_error_bound && estimate <= p.tolerance) {
-      const double bound = NsgsErrorBound(sums, nq);
-      if (bound <= p.tolerance) {
-        res.error = bound;
+    if (p.accept_error_bound && estimate.stop <= p.tolerance) {
+      const NsgsErrors bound = NsgsErrorBound(sums, nq, p);
+      if (bound.stop <= p.tolerance) {
+        SetErrors(&res, bound);
         res.error_bounded = true;
         res.converged = true;
         break;
       }
     }
     const bool out_of_time = budget.Exhausted(res.iterations);
-    if (out_of_time && p.accept_error_bound && estimate > p.tolerance && !budget.HoldsErrorPass(res.iterations)) {
+    if (out_of_time && p.accept_error_bound && estimate.stop > p.tolerance &&
+        !budget.HoldsErrorPass(res.iterations)) {
       // out of time even for the exact pass (up to a sweep's cost on a step already
       // late): the sweep's own estimate says how far the forces are
-      res.error = estimate;
+      SetErrors(&res, estimate);
       res.error_estimated = true;
       res.budget_stopped = true;
       break;
     }
-    if (estimate <= p.tolerance || res.iterations == p.max_iterations || out_of_time) {
-      res.error = SiconosError(op, r);
+    if (estimate.stop <= p.tolerance || res.iterations == p.max_iterations || out_of_time) {
+      SetErrors(&res, ExactErrors(op, r, p));
       ++res.exact_checks;
       if (res.error <= p.tolerance) {
         res.converged = true;
@@ -296,7 +383,7 @@ NsgsResult SolveNsgs(Op& op, Vec3* r, const NsgsParams& p, NsgsScratch& s) {
     }
     if (K <= 0 || sweep % K != 0 || res.iterations >= p.max_iterations) continue;
     if (sweep >= p.extrapolate_after && static_cast<int>(s.r_old.size()) == n) {
-      res.error = NsgsExtrapolate(op, r, p, s, nq, &res);
+      SetErrors(&res, NsgsExtrapolate(op, r, p, s, nq, &res));
       if (res.error <= p.tolerance) {
         res.converged = true;
         break;

@@ -102,19 +102,20 @@ class WorldDelassus {
 // Gauss-Seidel on the normal forces alone, for a step whose contacts are all
 // frictionless (mu = 0): the cone is the normal half-line, so the exact local
 // solve is r_n = max(0, r_n - u_n / W_nn) (what SolveLocalCoulomb does for mu = 0)
-// and the tangential forces stay zero. The in-sweep estimate is the Siconos
-// measure of the normal part (for mu = 0 the tangents add nothing to its
-// numerator, and the denominator here leaves out |u_t|^2, so the estimate is on
-// the safe side); the reported error is the exact Siconos measure of the full
-// 3D velocities, as in SolveNsgs.
+// and the tangential forces stay zero. The in-sweep estimates are the measures of
+// the normal part (for mu = 0 the tangents add nothing to their numerators, and
+// the Siconos denominator here leaves out |u_t|^2, so the estimate is on the safe
+// side); the reported errors are the exact measures of the full 3D velocities, as
+// in SolveNsgs.
 NsgsResult SolveNormalsOnly(WorldDelassus& op, Vec3* r, const NsgsParams& p) {
   NsgsResult res;
   const int n = op.NumContacts();
   const double omega = p.over_relaxation;
   const double nq = op.FreeNormSquared();
+  const bool scaled = p.measure == EStopMeasure::Scaled;
   const NsgsBudget budget(p.time_budget_s);
   for (int it = 0; it < p.max_iterations; ++it) {
-    double num = 0.0, nu = 0.0, nr = 0.0;
+    NsgsSweepSums s;
     const bool backward = p.order == ESweepOrder::Alternating && (it & 1);
     for (int k = 0; k < n; ++k) {
       const int c = backward ? n - 1 - k : k;
@@ -122,8 +123,13 @@ NsgsResult SolveNormalsOnly(WorldDelassus& op, Vec3* r, const NsgsParams& p) {
       const double un = op.NormalVelocity(c);
       const double rn = r[c][0];
       const double e = rn - std::max(0.0, rn - un);
-      num += e * e;
-      nu += un * un;
+      s.num += e * e;
+      if (scaled) {
+        const double rs = ForceToGap(op.DiagonalBlock(c)) * rn;
+        const double es = rs - std::max(0.0, rs - un);
+        s.num_s += es * es;
+      }
+      s.nu += un * un;
       double x = (wnn > 0.0 && std::isfinite(wnn)) ? std::max(0.0, rn - un / wnn) : 0.0;
       if (omega != 1.0) x = std::max(0.0, rn + omega * (x - rn));
       const double dr = x - rn;
@@ -131,14 +137,13 @@ NsgsResult SolveNormalsOnly(WorldDelassus& op, Vec3* r, const NsgsParams& p) {
         op.ApplyNormalDelta(c, dr);
         r[c][0] = x;
       }
-      nr += r[c][0] * r[c][0];
+      s.nr += r[c][0] * r[c][0];
     }
     res.iterations = it + 1;
-    const double den = std::sqrt(std::max({nq, nr, nu}));
-    const double estimate = den > 2.220446049250313e-16 ? std::sqrt(num) / den : std::sqrt(num);
+    const NsgsErrors estimate = SweepEstimates(s, nq, p);
     const bool out_of_time = budget.Exhausted(it + 1);
-    if (estimate <= p.tolerance || it + 1 == p.max_iterations || out_of_time) {
-      res.error = SiconosError(op, r);
+    if (estimate.stop <= p.tolerance || it + 1 == p.max_iterations || out_of_time) {
+      SetErrors(&res, ExactErrors(op, r, p));
       ++res.exact_checks;
       if (res.error <= p.tolerance) {
         res.converged = true;
@@ -155,6 +160,12 @@ NsgsResult SolveNormalsOnly(WorldDelassus& op, Vec3* r, const NsgsParams& p) {
 
 }  // namespace
 
+// what gravity moves a free body in one step
+double StepGapScale(const WorldParams& wp) {
+  const double g = wp.gravity.norm();
+  return ((g > 0.0 && std::isfinite(g)) ? g : 9.81) * wp.dt * wp.dt;
+}
+
 void SolveContacts(World& w) {
   using Clock = std::chrono::steady_clock;
   const auto t0 = Clock::now();
@@ -165,10 +176,14 @@ void SolveContacts(World& w) {
   // tangential part, which the cone of mu = 0 projects away anyway)
   bool frictionless = true;
   for (const ContactRow& row : w.rows) frictionless &= (row.mu == 0.0);
-  // accumulators start from the warm-start forces
+  // accumulators start from the warm-start forces, each projected on its cone
+  // first (the last step's force may lie outside this step's cone: new frame, new
+  // mu), so that a skipped solve moves the bodies with the forces it reports
   for (int c = 0; c < n; ++c) {
-    if (frictionless) w.rows[c].r = Vec3(std::max(0.0, w.rows[c].r[0]), 0.0, 0.0);
-    w.solve_r[c] = w.rows[c].r;
+    ContactRow& row = w.rows[c];
+    row.r = frictionless ? Vec3(std::max(0.0, row.r[0]), 0.0, 0.0) : ProjectOntoCone(row.r, row.mu);
+    if (!row.r.allFinite()) row.r.setZero();
+    w.solve_r[c] = row.r;
     const Vec3& r0 = w.rows[c].r;
     if (r0[0] != 0.0 || r0[1] != 0.0 || r0[2] != 0.0) op.ApplyDelta(c, r0);  // no warm start: nothing to move
   }
@@ -180,9 +195,9 @@ void SolveContacts(World& w) {
     const double spent = std::chrono::duration<double>(t0 - w.step_started()).count();
     const double left = w.params.step_time_budget_s - spent - w.last_constrained_motion_s();
     if (left < w.last_sweep_s_) {
-      for (ContactRow& row : w.rows) row.r = ProjectOntoCone(row.r, row.mu);
       w.profile.iterations = 0;
       w.profile.residual = 0.0;
+      w.profile.residual_siconos = 0.0;
       w.profile.converged = false;
       w.profile.budget_stopped = true;
       w.profile.solve_skipped = true;
@@ -196,6 +211,7 @@ void SolveContacts(World& w) {
     NsgsParams params = w.params.solver;
     // a step that converged in its sweep may skip the exact error pass (nsgs.h)
     params.accept_error_bound = true;
+    params.gap_scale = StepGapScale(w.params);
     if (w.params.step_time_budget_s > 0.0) {
       // what is left of the step's budget once the stages before have run, less what
       // constrained motion took in the last step (at least one sweep always runs)
@@ -206,6 +222,7 @@ void SolveContacts(World& w) {
                                         : SolveNsgs(op, w.solve_r.data(), params, w.gs_scratch);
     w.profile.iterations = res.iterations;
     w.profile.residual = res.error;
+    w.profile.residual_siconos = res.siconos_error;
     w.profile.converged = res.converged;
     w.profile.budget_stopped = res.budget_stopped;
     w.profile.residual_bounded = res.error_bounded;

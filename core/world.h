@@ -226,7 +226,13 @@ struct WorldParams {
   Vec3 gravity = Vec3(0, 0, -9.81);
   CollisionParams collision;
   int refit_stop_level = 3;
-  NsgsParams solver;
+  /// The step stops on the scaled measure (core/nsgs.h; gap_scale is set per step
+  /// to |g| dt^2): the tolerance bounds each contact's velocity error by tolerance |g| dt.
+  NsgsParams solver = [] {
+    NsgsParams p;
+    p.measure = EStopMeasure::Scaled;
+    return p;
+  }();
   int max_contacts = 8192;
   double default_friction = 0.8;
   /// m/s: an overlap already present at the start of a step (a body placed inside
@@ -296,7 +302,11 @@ struct StepProfile {
   double fill_w_rigid = 0, fill_w_deform = 0, solve = 0, constrained_motion = 0, total = 0;
   int contacts = 0;
   int iterations = 0;
-  double residual = 0.0;      ///< Siconos error of the step's forces, an upper bound of it (residual_bounded) or its estimate (residual_estimated)
+  /// the solver's stopping measure (params.solver.measure: the scaled one by default)
+  /// of the step's forces, an upper bound of it (residual_bounded) or its estimate
+  /// (residual_estimated); converged means residual <= params.solver.tolerance
+  double residual = 0.0;
+  double residual_siconos = 0.0;  ///< Siconos' fc3d measure of the same forces (bound / estimate likewise)
   bool residual_bounded = false;  ///< the solve converged on a bound of the error (NsgsParams::accept_error_bound)
   bool residual_estimated = false;  ///< the solve ran out of its time budget: the residual is the last sweep's estimate
   bool converged = true;
@@ -428,6 +438,9 @@ void FreeMotion(World& w);
 void DetectCollisions(World& w);
 void BuildContactSpace(World& w);
 void SolveContacts(World& w);
+/// The scaled measure's gap for the step (NsgsParams::gap_scale): |g| dt^2
+/// (9.81 m/s^2 when the scene has no gravity).
+double StepGapScale(const WorldParams& wp);
 void ConstrainedMotion(World& w);
 /// Marks the step as rejected (undone by ConstrainedMotion); the first reason is kept.
 void MarkRejected(World& w, const char* reason);

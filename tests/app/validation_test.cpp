@@ -85,5 +85,26 @@ TEST(Validation, UnknownNameIsRefused) {
   EXPECT_TRUE(out.empty());
 }
 
+TEST(Validation, StacksStandAtEveryMassRatioAtTheDefaultTolerance) {
+  const auto v = ValidateStack(Quick());
+  // quick: mass ratios 1 and 10 (100 and 1,000 take minutes: the full run)
+  for (const char* name : {"stack_ratio_1", "stack_ratio_10"}) {
+    const ValidationResult* r = Find(v, name);
+    ASSERT_NE(r, nullptr) << name;
+    EXPECT_TRUE(r->pass) << r->detail;
+    EXPECT_LE(r->error, 1e-6) << r->detail;  // walk, m/s
+  }
+}
+
+TEST(Validation, EveryMassTimesKLeavesTheStackUnchanged) {
+  const auto v = ValidateScale(Quick());
+  for (const char* name : {"scale_x8", "scale_x1024", "scale_x10", "scale_x1000", "scale_x8_sweeps",
+                           "scale_x1024_sweeps", "scale_x10_sweeps", "scale_x1000_sweeps"}) {
+    const ValidationResult* r = Find(v, name);
+    ASSERT_NE(r, nullptr) << name;
+    EXPECT_TRUE(r->pass) << r->detail;
+  }
+}
+
 }  // namespace
 }  // namespace gs::app

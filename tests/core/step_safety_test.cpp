@@ -124,7 +124,7 @@ TEST(StepSafety, StepBudgetEndsTheSolveEarlyCountsItAndAllocatesNothing) {
     FcProblem p;
     Eigen::VectorXd r;
     AssembleContactProblem(w, &p, &r);
-    const double exact = FcError(p, r);
+    const double exact = FcScaledError(p, r, StepGapScale(w.params));
     // the estimate is the error of the mixed iterate the sweep read, not of its
     // result: near the exact error, not a bound (1.5-2.2x it in a run of one-sweep
     // steps; up to 16x here, a few steps after the skips, where the exact error has
@@ -185,6 +185,64 @@ TEST(StepSafety, SkippedSolveKeepsTheLastForces) {
   EXPECT_EQ(w.profile.work.warm_started, 0);
   EXPECT_FALSE(w.profile.solve_skipped);
   EXPECT_EQ(w.profile.iterations, 1);
+}
+
+// What the reported forces r move an articulation by: A^-1 H^T r summed over the
+// contact sides on it (free bodies: J^T f = (f, lever x f)).
+Vec6 ResponseOfReportedForces(const World& w, int articulation) {
+  const Articulation& a = w.articulations[articulation];
+  Vec6 dq = Vec6::Zero();
+  for (const ContactRow& row : w.rows) {
+    const Vec3 f = row.frame.transpose() * row.r;  // on side 0, world
+    for (const ContactSide& s : row.side) {
+      if (s.articulation != articulation) continue;
+      dq.head<3>() += a.a_inv.topLeftCorner<3, 3>() * (s.sign * f);
+      dq.tail<3>() += a.a_inv.bottomRightCorner<3, 3>() * s.lever.cross(s.sign * f);
+    }
+  }
+  return dq;
+}
+
+double TangentialShare(const World& w) {
+  double t = 0.0, n = 0.0;
+  for (const ContactRow& row : w.rows) {
+    t += std::hypot(row.r[1], row.r[2]);
+    n += row.r[0];
+  }
+  return t / n;
+}
+
+// A skipped solve keeps the warm start projected on the new cones; the bodies
+// must move with those projected forces, not with the last step's (here outside
+// the cones: friction dropped from 0.8 to 0.08 under a box held by friction).
+TEST(StepSafety, SkippedSolveMovesTheBodiesWithTheForcesItReports) {
+  World w;
+  w.params.dt = 1e-3;
+  w.params.sleep.enabled = false;
+  w.params.default_friction = 0.8;
+  test::AddPlane(w);
+  BodySpec spec = test::SmallBox("box", Vec3(0, 0, 0.0102), 0.01);
+  spec.drive.enabled = true;
+  spec.drive.force = Vec3(0.2, 0, 0);  // 0.4 of the weight: friction holds it at mu 0.8
+  const int box = AddBody(w, spec);
+  w.Finalize();
+  for (int i = 0; i < 300; ++i) w.Step();
+  ASSERT_GT(w.rows.size(), 3u);
+  ASSERT_GT(TangentialShare(w), 0.3);
+  w.SetFriction(0, box, 0.08);
+  w.params.step_time_budget_s = 1e-9;
+  w.params.budget_may_skip_solve = true;
+  const Pose before = w.bodies[box].pose;
+  w.Step();
+  ASSERT_TRUE(w.profile.solve_skipped);
+  ASSERT_FALSE(w.profile.rejected);
+  EXPECT_LE(TangentialShare(w), 0.08 * (1 + 1e-12));  // reported: projected on the cones
+  const Articulation& a = w.articulations[w.bodies[box].articulation];
+  const Vec6 expect = ResponseOfReportedForces(w, w.bodies[box].articulation);
+  EXPECT_LE((a.dq - expect).norm(), 1e-9 * expect.norm());
+  // and the box moved by its free motion plus that response
+  const Vec3 moved = w.bodies[box].pose.t - before.t;
+  EXPECT_LE((moved - (a.dq_free.head<3>() + expect.head<3>())).norm(), 1e-9 * moved.norm() + 1e-15);
 }
 
 TEST(StepSafety, NonFiniteStepIsRejectedAndThePreviousStateKept) {
@@ -248,7 +306,9 @@ TEST(StepSafety, StepsAtRestReportABoundThatHoldsTheExactError) {
       FcProblem p;
       Eigen::VectorXd r;
       AssembleContactProblem(w, &p, &r);
-      EXPECT_LE(FcError(p, r), w.profile.residual * (1.0 + 1e-9) + 1e-300) << i;
+      // both measures: the scaled one the step stops on, and Siconos'
+      EXPECT_LE(FcScaledError(p, r, StepGapScale(w.params)), w.profile.residual * (1.0 + 1e-9) + 1e-300) << i;
+      EXPECT_LE(FcError(p, r), w.profile.residual_siconos * (1.0 + 1e-9) + 1e-300) << i;
       ++checked;
     }
   }
