@@ -1,114 +1,228 @@
-// The Hertz validation: a Boussinesq sphere pressed on a plane against Hertz's
-// contact theory.
+// The Hertz validation: a sphere pressed on a flat with a Boussinesq (elastic
+// half-space) compliance, against the exact solution of a rigid sphere indenting a
+// half-space, in two scenes:
+// - "sphere": a Boussinesq sphere pressed on a rigid plane (its control points
+//   against the analytic plane: no contact mode);
+// - "flat": a rigid sphere pressed on a Boussinesq box, in both contact modes
+//   (two-pass: both bodies' control points; one-pass: the sphere's only, standing
+//   on the box's surface through the eq. 8 interpolation).
+//
+// The reference. Hertz's F = 4/3 E* sqrt(R) d^1.5 takes the sphere for a paraboloid;
+// the half-space model sees the sphere's true profile, for which Sneddon (1965) gives
+// the exact frictionless solution in terms of the contact radius a:
+//   d = a/2 ln((R + a)/(R - a)),   F = E*/2 [(a^2 + R^2) ln((R + a)/(R - a)) - 2 a R].
+// For R = 2 cm and F = 0.25 ... 2 N (a/R = 0.15 ... 0.31) its log-log slope of F
+// against d is 1.4948 (not 1.5), its d is 0.2 ... 0.7 % above Hertz's and its a
+// 0.3 ... 1.6 % below sqrt(R d). The exponent and the radius are checked against it;
+// the depth against Hertz's d = (9 F^2 / (16 E*^2 R))^(1/3) (3 % covers the 0.7 %), so
+// that a compliance off by a constant factor fails even though the exponent and the
+// radius do not see E.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <memory>
+#include <string>
 
 #include "app/code_scenes.h"
-#include "app/paths.h"
-#include "app/scene_file.h"
 #include "app/validation_util.h"
 #include "core/world.h"
 
 namespace gs::app {
+namespace {
 
-// ---- Hertz -----------------------------------------------------------------
+constexpr double kRadius = 0.02, kYoung = 1e5, kPoisson = 0.45;
 
-std::vector<ValidationResult> ValidateHertz(const ValidationOptions& opt) {
-  const double R = 0.02, E = 1e5, nu = 0.45;
-  const std::vector<double> loads = opt.quick ? std::vector<double>{0.5, 2.0} : std::vector<double>{0.25, 0.5, 1.0, 2.0};
-  World w;
-  w.params.dt = 0.01;  // quasi-static: any step is stable
-  w.params.gravity.setZero();
-  w.params.solver.tolerance = 1e-8;
-  w.params.solver.max_iterations = 2000;
-  w.params.default_friction = 0.0;
-  AddBody(w, PlaneSpec("table", Pose{}));
-  BodySpec s;
-  s.name = "sphere";
-  s.shape.type = EShape::Sphere;
-  s.shape.radius = R;
-  s.geometry.points = opt.quick ? 12000 : 20000;
-  s.geometry.control_points = opt.quick ? 3000 : 5000;
-  s.dynamics = EDynamics::QuasiStatic;
-  s.mass = 0.1;
-  s.linear_damping = 100.0;
-  s.angular_damping = 1.0;
-  s.deformation.model = EDeformation::Boussinesq;
-  s.deformation.young_modulus = E;
-  s.deformation.poisson_ratio = nu;
-  s.deformation.influence_radius = 0.016;
-  s.drive.enabled = true;
-  s.drive.angular_stiffness = Vec3::Constant(1.0);
-  s.pose = Pose::Translation(Vec3(0, 0, R));
-  s.drive.target = s.pose;
-  const int sphere = AddBody(w, s);
-  w.Finalize();
-  // the height at which the lowest control point touches the plane
-  double lowest = 0;
-  for (const Vec3& c : w.bodies[sphere].geometry.tree.control_points()) lowest = std::min(lowest, c.z());
-  w.bodies[sphere].pose.t.z() = -lowest;
-  w.bodies[sphere].pose_prev = w.bodies[sphere].pose;
-  std::vector<double> ld, lf, radius_err;
-  char d[512];
-  std::string detail;
-  for (double F : loads) {
-    w.bodies[sphere].drive.force = Vec3(0, 0, -F);
-    for (int i = 0; i < 300; ++i) w.Step();
-    const double depth = -lowest - w.bodies[sphere].pose.t.z();
-    // Contact radius from the force-weighted second moment of the contact forces about
-    // the sphere's axis. For Hertz's pressure p = p0 sqrt(1 - r^2/a^2),
-    //   <r^2> = int p r^2 dA / int p dA = a^2 int_0^1 s sqrt(1-s) ds / int_0^1 sqrt(1-s) ds
-    //         = a^2 (4/15) / (2/3) = 2/5 a^2        (s = r^2/a^2),
-    // so a = sqrt(5/2 <r^2>). Why this and not the contact set's extent: each contact is a
-    // control point carrying the pressure over its own patch (the points are spread
-    // evenly, one patch per point), so the force-weighted sum is a quadrature of the two
-    // integrals. The pressure falls to zero at the rim as a square root, so rim points
-    // weigh little and whether one is in or out of the contact moves the estimate by a
-    // small fraction of a spacing. The contact set itself also holds points that carry no
-    // force (every gap under delta_eps enters it), and its area or largest radius is
-    // quantised by the spacing (1 mm here against a = 3-6 mm): those estimators are
-    // biased by the sampling, not by the physics.
-    const Vec3 c = w.bodies[sphere].pose.t;
-    double m0 = 0, m2 = 0;
-    for (const ContactRow& r : w.rows) {
-      const double f = std::max(0.0, r.r[0]);
-      m0 += f;
-      m2 += f * (r.world_point - Vec3(c.x(), c.y(), 0)).head<2>().squaredNorm();
-    }
-    const double a = m0 > 0 ? std::sqrt(2.5 * m2 / m0) : 0.0;
-    const double a_hertz = std::sqrt(R * depth);
-    radius_err.push_back(std::abs(a - a_hertz) / a_hertz);
-    ld.push_back(std::log(depth));
-    lf.push_back(std::log(F));
-    // Hertz's indentation of an elastic sphere on a rigid plane: F = 4/3 E* sqrt(R) d^1.5,
-    // E* = E / (1 - nu^2) (for information: the pass criteria are the exponent and a)
-    const double e_star = E / (1.0 - nu * nu);
-    const double d_hertz = std::pow(3.0 * F / (4.0 * e_star * std::sqrt(R)), 2.0 / 3.0);
-    std::snprintf(d, sizeof d, "F %.2f N: d %.3f mm (Hertz %.3f), a %.2f mm (sqrt(Rd) %.2f mm); ", F, 1e3 * depth,
-                  1e3 * d_hertz, 1e3 * a, 1e3 * a_hertz);
-    detail += d;
-  }
-  // least-squares slope of log F against log d
-  const int n = static_cast<int>(ld.size());
+double EStar() { return kYoung / (1.0 - kPoisson * kPoisson); }
+
+/// Sneddon's rigid sphere on a half-space at load F: contact radius and depth.
+struct Exact {
+  double radius = 0.0, depth = 0.0;
+};
+Exact Sneddon(double F) {
+  const double R = kRadius;
+  auto load = [R](double a) {
+    return 0.5 * EStar() * ((a * a + R * R) * std::log((R + a) / (R - a)) - 2.0 * a * R);
+  };
+  double lo = 0.0, hi = 0.999 * R;  // F(a) increases with a
+  for (int i = 0; i < 100; ++i) (load(0.5 * (lo + hi)) < F ? lo : hi) = 0.5 * (lo + hi);
+  Exact e;
+  e.radius = 0.5 * (lo + hi);
+  e.depth = 0.5 * e.radius * std::log((R + e.radius) / (R - e.radius));
+  return e;
+}
+
+double HertzDepth(double F) { return std::cbrt(9.0 * F * F / (16.0 * EStar() * EStar() * kRadius)); }
+
+/// least-squares slope of log y against log x
+double LogSlope(const std::vector<double>& x, const std::vector<double>& y) {
+  const int n = static_cast<int>(x.size());
   double mx = 0, my = 0;
   for (int i = 0; i < n; ++i) {
-    mx += ld[i] / n;
-    my += lf[i] / n;
+    mx += std::log(x[i]) / n;
+    my += std::log(y[i]) / n;
   }
   double sxy = 0, sxx = 0;
   for (int i = 0; i < n; ++i) {
-    sxy += (ld[i] - mx) * (lf[i] - my);
-    sxx += (ld[i] - mx) * (ld[i] - mx);
+    sxy += (std::log(x[i]) - mx) * (std::log(y[i]) - my);
+    sxx += (std::log(x[i]) - mx) * (std::log(x[i]) - mx);
   }
-  const double exponent = sxx > 0 ? sxy / sxx : NAN;
+  return sxx > 0 ? sxy / sxx : NAN;
+}
+
+DeformationParams HalfSpace() {
+  DeformationParams d;
+  d.model = EDeformation::Boussinesq;
+  d.young_modulus = kYoung;
+  d.poisson_ratio = kPoisson;
+  d.influence_radius = 0.016;  // wider than the 2 N patch (12 mm)
+  return d;
+}
+
+/// The pressed sphere: quasi-static, pushed down by its drive's constant force.
+BodySpec PressedSphere(int points, int control_points) {
+  BodySpec s;
+  s.name = "sphere";
+  s.shape.type = EShape::Sphere;
+  s.shape.radius = kRadius;
+  s.geometry.points = points;
+  s.geometry.control_points = control_points;
+  s.dynamics = EDynamics::QuasiStatic;
+  s.mass = 0.1;
+  s.linear_damping = 20.0;  // N s/m: settles a load step in tens of 10 ms steps
+  s.angular_damping = 1.0;
+  s.drive.enabled = true;
+  s.drive.angular_stiffness = Vec3::Constant(1.0);
+  return s;
+}
+
+/// Turns the sphere (body frame at its centre) so that its control point nearest the
+/// bottom is the bottom, resting on z = 0. Hertz's contact is centred on the axis;
+/// otherwise the lowest point sits r0^2 / 2R above the true bottom (up to 10 um at a
+/// 1.3 mm spacing, 2 % of the smallest depth) and the contact starts late by that.
+void RestOnControlPoint(World& w, int sphere) {
+  Body& b = w.bodies[sphere];
+  const std::vector<Vec3>& cp = b.geometry.tree.control_points();
+  const Vec3 low = *std::min_element(cp.begin(), cp.end(), [](const Vec3& a, const Vec3& c) { return a.z() < c.z(); });
+  b.pose.R = Eigen::Quaterniond::FromTwoVectors(low, -Vec3::UnitZ()).toRotationMatrix();
+  b.pose.t = Vec3(0, 0, low.norm());
+  b.pose_prev = b.pose;
+  b.drive.target = b.pose;
+}
+
+enum class EScene { SphereOnPlane, SphereOnFlat };
+
+struct Run {
+  std::vector<double> load, depth, radius;
+};
+
+/// The contact radius from the force-weighted second moment of the contact forces
+/// about the sphere's axis. For Hertz's p = p0 sqrt(1 - r^2/a^2),
+/// <r^2> = int p r^2 dA / int p dA = 2/5 a^2, so a = sqrt(5/2 <r^2>): each contact
+/// carries the pressure over its own patch, so the sum is a quadrature of the two
+/// integrals, and rim points, which carry little force, barely move it (the contact
+/// set's area or extent is quantised by the spacing).
+double ContactRadius(const World& w, const Vec3& axis_point) {
+  double m0 = 0, m2 = 0;
+  for (const ContactRow& r : w.rows) {
+    const double f = std::max(0.0, r.r[0]);
+    m0 += f;
+    m2 += f * (r.world_point - axis_point).head<2>().squaredNorm();
+  }
+  return m0 > 0 ? std::sqrt(2.5 * m2 / m0) : NAN;
+}
+
+/// Steps until the sphere's height changes by less than 1 nm per step (at most 300 steps).
+void Settle(World& w, int sphere) {
+  double z = w.bodies[sphere].pose.t.z();
+  for (int i = 0, calm = 0; i < 300 && calm < 5; ++i) {
+    w.Step();
+    const double now = w.bodies[sphere].pose.t.z();
+    calm = std::abs(now - z) < 1e-9 ? calm + 1 : 0;
+    z = now;
+  }
+}
+
+Run PressSphere(EScene scene, bool flat_emits, bool quick) {
+  World w;
+  w.params.dt = 0.01;  // quasi-static: any step is stable
+  w.params.gravity.setZero();
+  // each step's solve starts from the last step's forces, so the settling steps carry
+  // on the sweeps: a cap of 200 per step keeps a stiffly coupled contact set (two-pass
+  // contacts a fraction of a spacing apart) from spending 2,000 sweeps on every step
+  w.params.solver.tolerance = 1e-8;
+  w.params.solver.max_iterations = 200;
+  w.params.default_friction = 0.0;
+  const int points = quick ? 12000 : 20000, cps = quick ? 3000 : 5000;
+  if (scene == EScene::SphereOnPlane) {
+    AddBody(w, PlaneSpec("table", Pose{}));
+  } else {
+    BodySpec f;  // top face at z = 0, 4 x 4 cm: wider than the influence radius around the patch
+    f.name = "flat";
+    f.shape.type = EShape::Box;
+    f.shape.half_extents = Vec3(0.02, 0.02, 0.003);
+    f.geometry.points = points;
+    f.geometry.control_points = cps;
+    f.motion = EMotion::Fixed;
+    f.deformation = HalfSpace();
+    f.pose = Pose::Translation(Vec3(0, 0, -0.003));
+    f.emits_contacts = flat_emits;
+    AddBody(w, f);
+  }
+  BodySpec s = PressedSphere(scene == EScene::SphereOnPlane ? points : 12000,
+                             scene == EScene::SphereOnPlane ? cps : 3000);
+  if (scene == EScene::SphereOnPlane) s.deformation = HalfSpace();
+  const int sphere = AddBody(w, s);
+  w.Finalize();
+  RestOnControlPoint(w, sphere);
+  const double rest = w.bodies[sphere].pose.t.z();
+  Run run;
+  for (double F : quick ? std::vector<double>{0.5, 2.0} : std::vector<double>{0.25, 0.5, 1.0, 2.0}) {
+    w.bodies[sphere].drive.force = w.bodies[sphere].pose.R.transpose() * Vec3(0, 0, -F);  // target frame
+    Settle(w, sphere);
+    const Vec3 c = w.bodies[sphere].pose.t;
+    run.load.push_back(F);
+    run.depth.push_back(rest - c.z());
+    run.radius.push_back(ContactRadius(w, Vec3(c.x(), c.y(), 0.0)));
+  }
+  return run;
+}
+
+/// The three checks of one run: exponent, contact radius, depth.
+void Judge(const std::string& scene, const std::string& what, const Run& run, const std::string& mode,
+           std::vector<ValidationResult>* out) {
+  std::vector<double> exact_depth;
+  double worst_radius = 0.0, worst_depth = 0.0;
+  std::string detail = what + (mode.empty() ? "" : ", " + mode) + ": ";
+  char d[256];
+  for (size_t i = 0; i < run.load.size(); ++i) {
+    const Exact e = Sneddon(run.load[i]);
+    const double hertz = HertzDepth(run.load[i]);
+    exact_depth.push_back(e.depth);
+    const double ra = std::abs(run.radius[i] - e.radius) / e.radius;
+    const double rd = std::abs(run.depth[i] - hertz) / hertz;
+    worst_radius = std::isfinite(ra) ? std::max(worst_radius, ra) : NAN;
+    worst_depth = std::isfinite(rd) ? std::max(worst_depth, rd) : NAN;
+    std::snprintf(d, sizeof d, "F %.2f N: d %.4f mm (Hertz %.4f, Sneddon %.4f), a %.3f mm (Sneddon %.3f); ",
+                  run.load[i], 1e3 * run.depth[i], 1e3 * hertz, 1e3 * e.depth, 1e3 * run.radius[i], 1e3 * e.radius);
+    detail += d;
+  }
+  const double exponent = LogSlope(run.depth, run.load);
+  const double exact = LogSlope(exact_depth, run.load);
+  std::snprintf(d, sizeof d, "fitted exponent %.4f (Sneddon %.4f over these loads); ", exponent, exact);
+  out->push_back(Result("hertz_" + scene + "_exponent", std::abs(exponent - exact), 0.02, "absolute", d + detail, mode));
+  out->push_back(Result("hertz_" + scene + "_radius", worst_radius, 0.03, "relative",
+                        "contact radius (force-weighted second moment) against Sneddon's, worst load; " + detail, mode));
+  out->push_back(Result("hertz_" + scene + "_depth", worst_depth, 0.03, "relative",
+                        "indentation against Hertz's (9F^2/(16 E*^2 R))^(1/3), worst load; " + detail, mode));
+}
+
+}  // namespace
+
+std::vector<ValidationResult> ValidateHertz(const ValidationOptions& opt) {
   std::vector<ValidationResult> out;
-  std::snprintf(d, sizeof d, "fitted exponent %.3f (Hertz 1.5); ", exponent);
-  out.push_back(Result("hertz_exponent", std::abs(exponent - 1.5), 0.1, "absolute", d + detail));
-  const double worst = *std::max_element(radius_err.begin(), radius_err.end());
-  out.push_back(Result("hertz_radius", worst, 0.10, "relative",
-                       "contact radius (from the force-weighted second moment) against sqrt(R d): " + detail));
+  Judge("sphere", "Boussinesq sphere on a rigid plane", PressSphere(EScene::SphereOnPlane, true, opt.quick), "", &out);
+  Judge("flat", "rigid sphere on a Boussinesq box", PressSphere(EScene::SphereOnFlat, true, opt.quick), "two-pass", &out);
+  Judge("flat", "rigid sphere on a Boussinesq box", PressSphere(EScene::SphereOnFlat, false, opt.quick), "one-pass",
+        &out);
   return out;
 }
 

@@ -21,12 +21,16 @@ struct ValidationOptions {
   bool quick = false;  ///< shorter holds and coarser sampling (the test suite)
 };
 
-/// A block on a plane tilted at atan(mu) x (1 -+ 1%): sticks below, slides above.
+/// A block on a surface tilted at 0.9, 0.99, 1.01, 1.1 atan(mu) (quick: 0.99, 1.01), mu
+/// 0.4 and 0.8: sticks below, slides at g (sin a - mu cos a) above; on the analytic
+/// plane and on a box slab in both contact modes.
 std::vector<ValidationResult> ValidateIncline(const ValidationOptions& opt);
 /// A hexagonal prism pinched by three fingertips pushing with force P: holds for
 /// mu >= 1.005 mu*, falls for mu <= 0.995 mu*, mu* = m g / (3 P).
 std::vector<ValidationResult> ValidatePinch(const ValidationOptions& opt);
-/// A Boussinesq sphere pressed on a rigid plane: F ~ d^1.5 and a = sqrt(R d).
+/// A Boussinesq sphere pressed on a rigid plane, and a rigid sphere on a Boussinesq
+/// box in both contact modes: exponent and contact radius against Sneddon's exact
+/// sphere on a half-space, depth against Hertz's for the scene's E and nu.
 std::vector<ValidationResult> ValidateHertz(const ValidationOptions& opt);
 
 /// The paper's grasp (config/paper_box_grasp.yaml): the box must stay within 5 mm

@@ -3,9 +3,56 @@
 #include <algorithm>
 #include <cmath>
 
+#include <Eigen/Cholesky>
+
 #include "core/point_grid.h"
+#include "core/sym_eigen3.h"
 
 namespace gs {
+namespace {
+
+// Turns the Shepard weights w (normalised gaussian weights of the `count` control points
+// idx around the surface point p) into weights that reproduce exactly, at p, any field
+// a + b.x + c |x|^2 of the tangent-plane offset x: a moving least-squares fit of that
+// basis with the gaussian weights, evaluated at p. Shepard weights are positive, so
+// they average a displacement field that bends (a dent under a sphere: u = d - r^2/2R)
+// to below its value at p, by sum_k w_k |x_k|^2 / 2R: the interpolated dent is
+// shallower than the control points' and the contact stiffer. Leaves w unchanged
+// (returns false) when the points do not determine the fit.
+bool CurvatureExactWeights(const Vec3& p, const std::vector<Vec3>& cp, const int* idx, double* w, int count,
+                           double spacing) {
+  Mat3 cov = Mat3::Zero();
+  for (int k = 0; k < count; ++k) {
+    const Vec3 d = cp[idx[k]] - p;
+    cov += w[k] * d * d.transpose();
+  }
+  const Vec3 n = SmallestEigenvector(cov);
+  const Vec3 t1 = (std::abs(n.x()) < 0.9 ? Vec3::UnitX() : Vec3::UnitY()).cross(n).normalized();
+  const Vec3 t2 = n.cross(t1);
+  const double inv_h = 1.0 / spacing;
+  Eigen::Matrix<double, 4, 6> basis;
+  Eigen::Matrix4d m = Eigen::Matrix4d::Zero();
+  for (int k = 0; k < count; ++k) {
+    const Vec3 d = (cp[idx[k]] - p) * inv_h;
+    const double x = d.dot(t1), y = d.dot(t2);
+    basis.col(k) = Eigen::Vector4d(1.0, x, y, x * x + y * y);
+    m += w[k] * basis.col(k) * basis.col(k).transpose();
+  }
+  const Eigen::LDLT<Eigen::Matrix4d> ldlt(m);
+  if (ldlt.info() != Eigen::Success || !(ldlt.rcond() > 1e-6)) return false;
+  const Eigen::Vector4d a = ldlt.solve(Eigen::Vector4d::UnitX());
+  double out[6], spread = 0.0;
+  for (int k = 0; k < count; ++k) {
+    out[k] = w[k] * basis.col(k).dot(a);
+    spread += std::abs(out[k]);
+  }
+  // a fit that needs large opposing weights extrapolates: keep the averaging
+  if (!std::isfinite(spread) || spread > 3.0) return false;
+  for (int k = 0; k < count; ++k) w[k] = out[k];
+  return true;
+}
+
+}  // namespace
 
 void DeformableModel::Build(const std::vector<Vec3>& control_points, double area_per_point,
                             const DeformationParams& params, double dt) {
@@ -135,6 +182,8 @@ int DeformableModel::Interpolate(const Vec3& p, int near, int* idx, double* w, i
     return 1;
   }
   for (int m = 0; m < count; ++m) w[m] /= sum;
+  if (params_.model == EDeformation::Boussinesq && count >= 5 && count <= 6)
+    CurvatureExactWeights(p, cp_, idx, w, count, spacing_);
   return count;
 }
 
