@@ -15,13 +15,14 @@
 namespace gs {
 
 /// One rigid box (0.2 kg, 6 x 4 x 10 cm) held by `contacts` contacts (at least
-/// 7): fingertips on its four sides and a few on a palm below it. W has rank
-/// <= 6 (statically indeterminate for more than 2 contacts); the rows of each
-/// contact are scaled by a factor in [1, 10] (diagonal spread up to 100x, as
-/// contacts of different stiffness or units give); W is slightly asymmetric: H~
-/// differs from H by frames turned by ~1e-3 rad (lever arms and frames taken at
-/// two configurations). mu uniform in [0.3, 1]. The shape of the real FCLIB
-/// problems on which NSGS stalls at 1e-3 (one object, 23-25 contacts).
+/// 7) in five patches of 1 cm: a palm under it and four fingertips on its sides,
+/// the box moving at up to 10 cm/s and 2 rad/s besides falling. W has rank <= 6
+/// (statically indeterminate, nearly parallel rows within a patch); the rows of
+/// each contact are scaled by a factor in [1, 10] (diagonal spread up to 100x,
+/// as contacts of different stiffness or units give); W is slightly asymmetric:
+/// H~ differs from H by frames turned by 1e-3 rad (frames taken at two
+/// configurations). mu uniform in [0.3, 1]. The shape of the real FCLIB problems
+/// on which NSGS stalls at 1e-3 (one object, 23-25 contacts).
 FcProblem GrippedBodyProblem(int contacts, uint64_t seed);
 
 /// One stack of `boxes` boxes (4 corner contacts each, the bottom one on the
