@@ -25,6 +25,17 @@ namespace gs {
 /// on which NSGS stalls at 1e-3 (one object, 23-25 contacts).
 FcProblem GrippedBodyProblem(int contacts, uint64_t seed);
 
+/// The gripped body's settings (the defaults are GrippedBodyProblem's).
+struct GrippedBody {
+  double patch_radius = 5e-3;     ///< m: half width of a patch
+  double normal_spread = 0.05;    ///< normals tilted by up to about this (rad)
+  double drift = 0.1, spin = 2.0;  ///< free velocity besides gravity (m/s, rad/s)
+  double diagonal_spread = 100.0;  ///< largest ratio of two contacts' diagonal
+  double tilt = 1e-3;             ///< rad: H~'s frames against H's (asymmetry)
+  double mu_lo = 0.3, mu_hi = 1.0;
+};
+FcProblem GrippedBodyProblem(int contacts, uint64_t seed, const GrippedBody& settings);
+
 /// One stack of `boxes` boxes (4 corner contacts each, the bottom one on the
 /// ground), the masses growing geometrically from 1 kg at the bottom to `ratio`
 /// kg at the top (heavy on light). mu uniform in [0.1, 1].
