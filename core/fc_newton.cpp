@@ -135,19 +135,6 @@ double SiconosErrorOf(const FcProblem& p, const Eigen::VectorXd& r, const Eigen:
   return den > 2.220446049250313e-16 ? std::sqrt(num) / den : std::sqrt(num);
 }
 
-// Backtracking from r along d (t = 1, 1/2, ... 2^-20): the first t with
-// |phi_sigma(r + t d)| <= (1 - 1e-4 t) norm0, phi_sigma centred at r. 0 when none.
-double LineSearch(AlartCurnier& ac, const Eigen::VectorXd& r, const Eigen::VectorXd& d, double sigma, double norm0,
-                  Eigen::VectorXd* trial, Eigen::VectorXd* trial_phi) {
-  double t = 1.0;
-  for (int k = 0; k <= 20 && d.allFinite(); ++k, t *= 0.5) {
-    *trial = r + t * d;
-    ac.Evaluate(*trial, r, sigma, trial_phi, false);
-    if (trial_phi->norm() <= (1.0 - 1e-4 * t) * norm0) return t;
-  }
-  return 0.0;
-}
-
 }  // namespace
 
 FcNewtonResult SolveFcNewton(const FcProblem& p, const FcNewtonParams& params, Eigen::VectorXd* r) {
@@ -156,17 +143,13 @@ FcNewtonResult SolveFcNewton(const FcProblem& p, const FcNewtonParams& params, E
   const int m = 3 * p.contacts;
   if (r->size() != m) r->setZero(m);
   AlartCurnier ac(p);
-  const double diag = ac.MeanDiagonal();
   res.error = SiconosErrorOf(p, *r, ac.Velocity(*r));
-  Eigen::VectorXd best = *r, phi(m), trial_phi(m), d(m), trial(m);
+  Eigen::VectorXd best = *r, phi(m), trial_phi(m), d(m), trial(m), centre = *r;
   double best_error = res.error;
-  const double sigma_min = 1e-12 * diag, sigma_max = 1e8 * diag;
+  const double sigma_min = 1e-12 * ac.MeanDiagonal(), sigma_max = 1e8 * ac.MeanDiagonal();
   // forces beyond this are taken as divergence: far above any force that balances q
-  const double force_scale = std::max(p.q.norm() / diag, 1e-300);
-  const double force_limit = 1e12 * std::max(1.0, force_scale);
-  // sigma = kappa diag |phi| / |r|: large far from a solution, vanishing at one
-  double kappa = params.sigma0;
-  double sigma = kappa * diag;
+  const double force_limit = 1e12 * std::max(1.0, p.q.norm() / ac.MeanDiagonal());
+  double sigma = params.sigma0 * ac.MeanDiagonal();
   ColMatrix J;
   Eigen::SparseLU<ColMatrix, Eigen::COLAMDOrdering<int>> lu;
   bool analysed = false;
@@ -178,10 +161,8 @@ FcNewtonResult SolveFcNewton(const FcProblem& p, const FcNewtonParams& params, E
       res.stop = EFcStop::TimeCap;
       break;
     }
-    ac.Evaluate(*r, *r, 0.0, &phi, false);
-    const double norm0 = phi.norm();
-    sigma = std::clamp(kappa * diag * std::min(1.0, norm0 / std::max(r->norm(), force_scale)), sigma_min, sigma_max);
-    ac.Evaluate(*r, *r, sigma, &phi, true);
+    centre = *r;
+    ac.Evaluate(*r, centre, sigma, &phi, true);
     ac.Jacobian(&J);
     if (!analysed) {
       lu.analyzePattern(J);
@@ -190,28 +171,32 @@ FcNewtonResult SolveFcNewton(const FcProblem& p, const FcNewtonParams& params, E
     lu.factorize(J);
     ++res.factorizations;
     if (lu.info() != Eigen::Success) {
-      kappa = std::min(1e8, 10.0 * kappa);
+      sigma = std::min(sigma_max, 10.0 * sigma);
       continue;
     }
     d = lu.solve(-phi);
-    // first a step that lowers the residual of the problem itself (sigma = 0); else a
-    // proximal step, lowering the residual of W + sigma I centred at r, and more damping
-    double t = LineSearch(ac, *r, d, 0.0, norm0, &trial, &trial_phi);
-    if (t > 0.0) {
-      if (t == 1.0) kappa = std::max(1e-6, 0.1 * kappa);
-    } else {
-      t = LineSearch(ac, *r, d, sigma, norm0, &trial, &trial_phi);
-      kappa = std::min(1e8, 10.0 * kappa);
-      if (t == 0.0) {
-        if (sigma >= sigma_max) {
-          res.stop = EFcStop::LineSearchFailed;
-          break;
-        }
-        continue;
+    const double norm0 = phi.norm();
+    double t = 1.0;
+    bool accepted = false;
+    for (int k = 0; k < 30 && d.allFinite(); ++k, t *= 0.5) {
+      trial = *r + t * d;
+      ac.Evaluate(trial, centre, sigma, &trial_phi, false);
+      if (trial_phi.norm() <= (1.0 - 1e-4 * t) * norm0) {
+        accepted = true;
+        break;
       }
+    }
+    if (!accepted) {
+      if (sigma >= sigma_max) {
+        res.stop = EFcStop::LineSearchFailed;
+        break;
+      }
+      sigma = std::min(sigma_max, 10.0 * sigma);
+      continue;
     }
     ++res.iterations;
     *r = trial;
+    sigma = t == 1.0 ? std::max(sigma_min, 0.25 * sigma) : std::min(sigma_max, 2.0 * sigma);
     const double e = SiconosErrorOf(p, *r, ac.Velocity(*r));
     if (e < best_error) {
       best_error = e;

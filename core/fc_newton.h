@@ -13,12 +13,10 @@
 // generalised Jacobian of phi for W + sigma I (the problem whose proximal centre
 // is the current r), so the system stays non-singular when W is rank-deficient
 // (statically indeterminate contacts) and the step is damped along W's null
-// space. sigma = kappa mean(diag W) min(1, |phi(r)| / |r|) vanishes at a
-// solution (fast local convergence, as Levenberg-Marquardt's weight). The step
-// length halves until |phi(r + t d)| <= (1 - 1e-4 t)|phi(r)| (a step on the
-// problem itself; kappa / 10 after a full one); when no such t exists, until
-// the proximal residual |phi_sigma(r + t d)| meets that test (a proximal-point
-// step, kappa x 10). The linear system is factorised by Eigen's sparse
+// space. The step length halves until |phi_sigma(r + t d)| <= (1 - 1e-4 t)|phi(r)|.
+// sigma shrinks (x 1/4) after a full step and grows (x 10) after a failed search,
+// so the method becomes plain semi-smooth Newton near a solution and a proximal
+// point iteration far from it. The linear system is factorised by Eigen's sparse
 // LU (its pattern analysed once). The convergence test is Siconos' error of the
 // original problem (sigma = 0), and the forces returned are the best seen.
 #pragma once
@@ -46,7 +44,7 @@ struct FcNewtonParams {
   double tolerance = 1e-6;     ///< on the Siconos error of the original problem
   int max_iterations = 200;    ///< Newton steps (each one LU factorisation)
   double time_budget_s = 0.0;  ///< 0: none
-  double sigma0 = 1.0;         ///< initial kappa (see above)
+  double sigma0 = 1e-4;        ///< initial proximal weight, relative to the mean diagonal of W
 };
 
 struct FcNewtonResult {
