@@ -1,6 +1,7 @@
 #include "core/fc_fallback.h"
 
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 
 namespace gs {
@@ -68,6 +69,19 @@ void RunNewton(const FcProblem& p, const FcMethodParams& params, double budget, 
   out->stop = out->newton.stop;
 }
 
+// True when r "solves" p only because |r| is huge: the relative error is small, but
+// |r| mean(diag W) exceeds 1e4 |q| and the error relative to |q| alone is not. An
+// infeasible problem (a body squeezed between two closing walls) gives this: the
+// forces grow without bound while their relative error falls.
+bool UnboundedForces(const FcProblem& p, const Eigen::VectorXd& r, double tolerance) {
+  const double q = p.q.norm(), diag = p.W.diagonal().mean();
+  if (!(r.norm() * diag > 1e4 * q)) return false;
+  const Eigen::VectorXd u = p.W * r + p.q;
+  double num = 0.0;
+  for (int c = 0; c < p.contacts; ++c) num += LocalErrorSquared(r.segment<3>(3 * c), u.segment<3>(3 * c), p.mu[c]);
+  return std::sqrt(num) > tolerance * std::max(q, 2.220446049250313e-16);
+}
+
 }  // namespace
 
 FcMethodResult SolveFcMethod(const FcProblem& p, EFcMethod method, const FcMethodParams& params,
@@ -87,6 +101,10 @@ FcMethodResult SolveFcMethod(const FcProblem& p, EFcMethod method, const FcMetho
       *r = from_nsgs;  // Newton found nothing better: keep NSGS's forces, and Newton's stop reason
       out.error = nsgs_error;
     }
+  }
+  if (out.converged && UnboundedForces(p, *r, params.tolerance)) {
+    out.converged = false;
+    out.stop = EFcStop::Diverged;
   }
   out.seconds = Since(t0);
   return out;

@@ -2,7 +2,10 @@
 // alone, the proximal semi-smooth Newton method alone (fc_newton.h), or auto:
 // NSGS until its stagnation rule fires (NsgsParams::stagnation_window), then
 // Newton from the NSGS forces. Every stage has its cap, and the result says
-// which one ended the solve (EFcStop).
+// which one ended the solve (EFcStop). A result that meets the tolerance only
+// because the forces are huge (|r| mean(diag W) > 1e4 |q| while the error
+// relative to |q| alone exceeds it) is reported as Diverged, not converged:
+// Siconos' relative error falls as 1/|r| on an infeasible problem.
 #pragma once
 
 #include <Eigen/Core>
