@@ -14,7 +14,8 @@
 // is the current r), so the system stays non-singular when W is rank-deficient
 // (statically indeterminate contacts) and the step is damped along W's null
 // space. The step length halves until |phi_sigma(r + t d)| <= (1 - 1e-4 t)|phi(r)|.
-// sigma shrinks (x 1/4) after a full step and grows (x 10) after a failed search,
+// sigma starts at sigma0 mean(diag W), shrinks (x 1/4) after a full step, doubles
+// after a shortened one and grows (x 10) after a failed search,
 // so the method becomes plain semi-smooth Newton near a solution and a proximal
 // point iteration far from it. The linear system is factorised by Eigen's sparse
 // LU (its pattern analysed once). The convergence test is Siconos' error of the

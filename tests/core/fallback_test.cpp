@@ -139,7 +139,9 @@ TEST(Fallback, AnInfeasibleProblemEndsWithAClearStatementNotAHang) {
     const FcMethodResult res = SolveFcMethod(p, m, mp, &r);
     EXPECT_FALSE(res.converged) << res.Summary();
     EXPECT_NE(res.stop, EFcStop::Converged);
-    if (m != EFcMethod::Nsgs) EXPECT_EQ(res.stop, EFcStop::Diverged) << res.Summary();
+    if (m != EFcMethod::Nsgs) {
+      EXPECT_EQ(res.stop, EFcStop::Diverged) << res.Summary();
+    }
     EXPECT_TRUE(std::isfinite(res.error)) << res.Summary();
     EXPECT_TRUE(r.allFinite()) << res.Summary();
     EXPECT_GT(res.error, 0.0) << res.Summary();
