@@ -1,11 +1,14 @@
-// `graspsim solve FILE.hdf5 [--json] [--tolerance X] [--max-iterations N]`:
-// solves an FCLIB local frictional contact problem with our NSGS and prints the
-// iterations, the Siconos error of the forces and the time.
+// `graspsim solve FILE.hdf5 [--json] [--solver nsgs|newton|auto] [--tolerance X]
+// [--max-iterations N] [--write-solution OUT.hdf5]`: solves an FCLIB local
+// frictional contact problem (core/fc_fallback.h) and prints the iterations,
+// the Siconos error of the forces, the time and what ended the solve.
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 
 #include "app/commands.h"
 #include "app/fclib_io.h"
+#include "core/fc_fallback.h"
 
 namespace gs::app {
 
@@ -17,7 +20,31 @@ struct SolveOptions {
   double over_relaxation = 1.0;
   std::string order = "forward";
   int extrapolate_every = FcSolveParams().nsgs.extrapolate_every;
+  std::string solver = "auto";
+  int max_newton = FcMethodParams().max_newton;
+  int stagnation_window = FcMethodParams().stagnation_window;
+  std::string write_solution;
 };
+
+EFcMethod ParseMethod(const std::string& s) {
+  return s == "nsgs" ? EFcMethod::Nsgs : s == "newton" ? EFcMethod::Newton : EFcMethod::Auto;
+}
+
+// the problem and its solution (r, u = W r + q) as an FCLIB file, for other tools to check
+bool WriteSolution(const SolveOptions& opt, const FcProblem& p, const Eigen::VectorXd& r, const FcMethodResult& res) {
+  std::error_code ec;
+  if (std::filesystem::equivalent(opt.file, opt.write_solution, ec)) {
+    std::fprintf(stderr, "graspsim solve: --write-solution %s is the input file; give another path\n",
+                 opt.write_solution.c_str());
+    return false;
+  }
+  std::string error;
+  if (!WriteFclibLocal(opt.write_solution, p, "graspsim solve " + opt.file, res.Summary(), &r, &error)) {
+    std::fprintf(stderr, "graspsim solve: %s\n", error.c_str());
+    return false;
+  }
+  return true;
+}
 
 int RunSolve(const SolveOptions& opt) {
   FcProblem p;
@@ -26,39 +53,56 @@ int RunSolve(const SolveOptions& opt) {
     std::fprintf(stderr, "graspsim solve: %s\n", error.c_str());
     return kExitBadInput;
   }
-  FcSolveParams params;
-  params.nsgs.tolerance = opt.tolerance;
-  params.nsgs.max_iterations = opt.max_iterations;
-  params.nsgs.over_relaxation = opt.over_relaxation;
-  params.nsgs.order = opt.order == "alternating" ? ESweepOrder::Alternating : ESweepOrder::Forward;
-  params.nsgs.extrapolate_every = opt.extrapolate_every;
+  FcMethodParams params;
+  params.tolerance = opt.tolerance;
+  params.max_sweeps = opt.max_iterations;
+  params.max_newton = opt.max_newton;
+  params.stagnation_window = opt.stagnation_window;
+  params.over_relaxation = opt.over_relaxation;
+  params.order = opt.order == "alternating" ? ESweepOrder::Alternating : ESweepOrder::Forward;
+  params.extrapolate_every = opt.extrapolate_every;
   Eigen::VectorXd r;
-  const FcSolveResult res = SolveFcProblem(p, params, &r);
+  const FcMethodResult res = SolveFcMethod(p, ParseMethod(opt.solver), params, &r);
   const double error_check = FcError(p, r);
   if (opt.json) {
-    std::printf("{\"file\":\"%s\",\"contacts\":%d,\"nnz\":%lld,\"tolerance\":%.3g,\"iterations\":%d,\"error\":%.6g,"
-                "\"converged\":%s,\"time_ms\":%.6g,\"extrapolations\":%d}\n",
+    std::printf("{\"file\":\"%s\",\"contacts\":%d,\"nnz\":%lld,\"tolerance\":%.3g,\"solver\":\"%s\","
+                "\"iterations\":%d,\"newton_iterations\":%d,\"stagnated\":%s,\"error\":%.6g,\"converged\":%s,"
+                "\"stop\":\"%s\",\"time_ms\":%.6g,\"nsgs_ms\":%.6g,\"newton_ms\":%.6g,\"extrapolations\":%d}\n",
                 opt.file.c_str(), p.contacts, static_cast<long long>(p.W.nonZeros()), opt.tolerance,
-                res.nsgs.iterations, error_check, res.nsgs.converged ? "true" : "false", 1e3 * res.seconds,
+                opt.solver.c_str(), res.nsgs.iterations, res.newton.iterations,
+                res.nsgs.stagnated ? "true" : "false", error_check, res.converged ? "true" : "false",
+                FcStopName(res.stop), 1e3 * res.seconds, 1e3 * res.nsgs_seconds, 1e3 * res.newton_seconds,
                 res.nsgs.extrapolations);
   } else {
     std::printf("%s: %d contacts, W %lld non-zeros\n", opt.file.c_str(), p.contacts,
                 static_cast<long long>(p.W.nonZeros()));
-    std::printf("NSGS (exact local Coulomb solve): %d iterations (%d extrapolations kept), error %.3e (Siconos "
-                "measure), %.3f ms, %s\n",
-                res.nsgs.iterations, res.nsgs.extrapolations, error_check, 1e3 * res.seconds,
-                res.nsgs.converged ? "converged" : "NOT converged (iteration cap)");
+    std::printf("%s\nerror %.3e (Siconos measure, recomputed), %.3f ms: %s\n", res.Summary().c_str(), error_check,
+                1e3 * res.seconds, res.converged ? "converged" : "NOT converged");
   }
-  return res.nsgs.converged ? kExitOk : kExitFailure;
+  if (!opt.write_solution.empty() && !WriteSolution(opt, p, r, res)) return kExitFailure;
+  return res.converged ? kExitOk : kExitFailure;
 }
 
 void AddSolveCommand(CLI::App& app, int* exit_code) {
   auto opt = std::make_shared<SolveOptions>();
-  CLI::App* cmd = app.add_subcommand("solve", "Solve an FCLIB local frictional contact problem (HDF5) with our NSGS");
+  CLI::App* cmd = app.add_subcommand("solve", "Solve an FCLIB local frictional contact problem (HDF5)");
   cmd->add_option("file", opt->file, "FCLIB file (.hdf5)")->required();
   cmd->add_flag("--json", opt->json, "one JSON object: contacts, iterations, error, converged, time_ms");
   cmd->add_option("--tolerance", opt->tolerance, "on the Siconos error")->capture_default_str()->check(CLI::PositiveNumber);
-  cmd->add_option("--max-iterations", opt->max_iterations, "sweep cap")->capture_default_str()->check(CLI::PositiveNumber);
+  cmd->add_option("--solver", opt->solver,
+                  "nsgs; newton (proximal semi-smooth Newton, Alart-Curnier); auto (NSGS, then Newton when it stagnates)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"nsgs", "newton", "auto"}));
+  cmd->add_option("--max-newton", opt->max_newton, "Newton step cap (LU factorisations)")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  cmd->add_option("--stagnation-window", opt->stagnation_window,
+                  "auto: NSGS sweeps per progress check (the best error must halve per window)")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  cmd->add_option("--write-solution", opt->write_solution,
+                  "write the problem and the forces found (FCLIB solution: r, u = W r + q) to this HDF5 file");
+  cmd->add_option("--max-iterations", opt->max_iterations, "NSGS sweep cap")->capture_default_str()->check(CLI::PositiveNumber);
   cmd->add_option("--over-relaxation", opt->over_relaxation, "omega in (0, 2)")->capture_default_str()->check(CLI::Range(0.01, 1.99));
   cmd->add_option("--order", opt->order, "sweep order")->capture_default_str()->check(CLI::IsMember({"forward", "alternating"}));
   cmd->add_option("--extrapolate-every", opt->extrapolate_every,

@@ -145,20 +145,28 @@ void CornerContacts(RigidScene& s, int upper, int lower, double half, double mu_
 
 }  // namespace
 
-FcProblem GrippedBodyProblem(int contacts, uint64_t seed) {
+FcProblem GrippedBodyProblem(int contacts, uint64_t seed) { return GrippedBodyProblem(contacts, seed, GrippedBody()); }
+
+FcProblem GrippedBodyProblem(int contacts, uint64_t seed, const GrippedBody& g) {
   RigidScene s(seed);
   const Vec3 half(0.03, 0.02, 0.05);
   const double mass = 0.2;
-  const int body = s.AddBody(Vec3::Zero(), mass, BoxInertia(mass, half), FallingVelocity(s, 0.01, 0.2));
+  const int body = s.AddBody(Vec3::Zero(), mass, BoxInertia(mass, half), FallingVelocity(s, g.drift, g.spin));
   contacts = std::max(contacts, 7);
-  const int palm = std::max(3, contacts / 8);
+  // five patches: a palm under the box, four fingertips on its sides
+  const int faces[5] = {4, 0, 1, 2, 3};
+  std::pair<Vec3, Vec3> patch[5];
+  for (int k = 0; k < 5; ++k) patch[k] = PointOnFace(s, Vec3::Zero(), half, faces[k]);
   for (int c = 0; c < contacts; ++c) {
-    const int face = c < palm ? 4 : c % 4;  // palm under the box, fingertips on the four sides
-    const auto [point, inward] = PointOnFace(s, Vec3::Zero(), half, face);
-    const Vec3 n = (inward + 0.1 * Vec3(s.Uniform(-1, 1), s.Uniform(-1, 1), s.Uniform(-1, 1))).normalized();
-    const double gap = s.Uniform(0.0, 1.0) < 0.2 ? s.Uniform(0.0, 2e-3) : 0.0;
-    s.AddContact(point, n, body, -1, s.Uniform(0.3, 1.0), gap, std::sqrt(std::pow(100.0, s.Uniform(0.0, 1.0))),
-                 1e-3);
+    const int k = c % 5, axis = faces[k] / 2;
+    const double w = g.patch_radius;
+    Vec3 point = patch[k].first + Vec3(s.Uniform(-w, w), s.Uniform(-w, w), s.Uniform(-w, w));
+    point[axis] = patch[k].first[axis];
+    const Vec3 n = (patch[k].second + g.normal_spread * Vec3(s.Uniform(-1, 1), s.Uniform(-1, 1), s.Uniform(-1, 1)))
+                       .normalized();
+    const double gap = s.Uniform(0.0, 1.0) < 0.1 ? s.Uniform(0.0, 1e-3) : 0.0;
+    const double scale = std::sqrt(std::pow(g.diagonal_spread, s.Uniform(0.0, 1.0)));
+    s.AddContact(point, n, body, -1, s.Uniform(g.mu_lo, g.mu_hi), gap, scale, g.tilt);
   }
   return s.Assemble();
 }

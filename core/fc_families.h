@@ -15,14 +15,26 @@
 namespace gs {
 
 /// One rigid box (0.2 kg, 6 x 4 x 10 cm) held by `contacts` contacts (at least
-/// 7): fingertips on its four sides and a few on a palm below it. W has rank
-/// <= 6 (statically indeterminate for more than 2 contacts); the rows of each
-/// contact are scaled by a factor in [1, 10] (diagonal spread up to 100x, as
-/// contacts of different stiffness or units give); W is slightly asymmetric: H~
-/// differs from H by frames turned by ~1e-3 rad (lever arms and frames taken at
-/// two configurations). mu uniform in [0.3, 1]. The shape of the real FCLIB
-/// problems on which NSGS stalls at 1e-3 (one object, 23-25 contacts).
+/// 7) in five patches of 1 cm: a palm under it and four fingertips on its sides,
+/// the box moving at up to 10 cm/s and 2 rad/s besides falling. W has rank <= 6
+/// (statically indeterminate, nearly parallel rows within a patch); the rows of
+/// each contact are scaled by a factor in [1, 10] (diagonal spread up to 100x,
+/// as contacts of different stiffness or units give); W is slightly asymmetric:
+/// H~ differs from H by frames turned by 1e-3 rad (frames taken at two
+/// configurations). mu uniform in [0.3, 1]. The shape of the real FCLIB problems
+/// on which NSGS stalls at 1e-3 (one object, 23-25 contacts).
 FcProblem GrippedBodyProblem(int contacts, uint64_t seed);
+
+/// The gripped body's settings (the defaults are GrippedBodyProblem's).
+struct GrippedBody {
+  double patch_radius = 5e-3;     ///< m: half width of a patch
+  double normal_spread = 0.05;    ///< normals tilted by up to about this (rad)
+  double drift = 0.1, spin = 2.0;  ///< free velocity besides gravity (m/s, rad/s)
+  double diagonal_spread = 100.0;  ///< largest ratio of two contacts' diagonal
+  double tilt = 1e-3;             ///< rad: H~'s frames against H's (asymmetry)
+  double mu_lo = 0.3, mu_hi = 1.0;
+};
+FcProblem GrippedBodyProblem(int contacts, uint64_t seed, const GrippedBody& settings);
 
 /// One stack of `boxes` boxes (4 corner contacts each, the bottom one on the
 /// ground), the masses growing geometrically from 1 kg at the bottom to `ratio`

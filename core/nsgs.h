@@ -98,6 +98,12 @@ struct NsgsParams {
   /// still move, would say little). Off for explicit problems (files,
   /// benches), whose reported error is the exact one; the simulator's step sets it.
   bool accept_error_bound = false;
+  /// Stagnation rule (0: off): every `stagnation_window` sweeps the lowest in-sweep
+  /// estimate so far must have fallen below `stagnation_ratio` times its value a
+  /// window earlier; otherwise the solve stops after an exact error pass with
+  /// `stagnated` set, so that a second method can continue from the forces.
+  int stagnation_window = 0;
+  double stagnation_ratio = 0.5;
 };
 
 struct NsgsResult {
@@ -115,6 +121,23 @@ struct NsgsResult {
   /// with no time for the exact pass, under accept_error_bound): the error of the
   /// mixed iterate the sweep read, not a bound
   bool error_estimated = false;
+  bool stagnated = false;  ///< stopped by the stagnation rule (NsgsParams::stagnation_window)
+};
+
+/// The stagnation rule of NsgsParams, fed the in-sweep estimate of every sweep.
+struct NsgsStagnation {
+  double best = std::numeric_limits<double>::infinity();
+  double best_at_mark = std::numeric_limits<double>::infinity();
+  int mark = 0;
+  /// True when a whole window passed without the progress the rule asks for.
+  bool Stalled(double estimate, int sweep, const NsgsParams& p) {
+    if (estimate < best) best = estimate;
+    if (p.stagnation_window <= 0 || sweep - mark < p.stagnation_window) return false;
+    const bool stalled = mark > 0 && !(best <= p.stagnation_ratio * best_at_mark);
+    best_at_mark = best;
+    mark = sweep;
+    return stalled;
+  }
 };
 
 /// The time budget of NsgsParams: the solve's start time and the rule that ends it.
@@ -343,6 +366,7 @@ NsgsResult SolveNsgs(Op& op, Vec3* r, const NsgsParams& p, NsgsScratch& s) {
   const double nq = op.FreeNormSquared();
   const int K = p.extrapolate_every;
   const NsgsBudget budget(p.time_budget_s);
+  NsgsStagnation stagnation;
   int sweep = 0;  // plain sweeps
   while (res.iterations < p.max_iterations) {
     const bool backward = p.order == ESweepOrder::Alternating && (sweep & 1);
@@ -380,6 +404,13 @@ NsgsResult SolveNsgs(Op& op, Vec3* r, const NsgsParams& p, NsgsScratch& s) {
         res.budget_stopped = true;
         break;
       }
+    }
+    if (stagnation.Stalled(estimate, res.iterations, p)) {
+      res.error = SiconosError(op, r);
+      ++res.exact_checks;
+      res.converged = res.error <= p.tolerance;
+      res.stagnated = !res.converged;
+      break;
     }
     if (K <= 0 || sweep % K != 0 || res.iterations >= p.max_iterations) continue;
     if (sweep >= p.extrapolate_after && static_cast<int>(s.r_old.size()) == n) {

@@ -1,0 +1,113 @@
+#include "core/fc_fallback.h"
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+
+namespace gs {
+
+const char* FcMethodName(EFcMethod m) {
+  switch (m) {
+    case EFcMethod::Nsgs: return "nsgs";
+    case EFcMethod::Newton: return "newton";
+    case EFcMethod::Auto: return "auto";
+  }
+  return "unknown";
+}
+
+std::string FcMethodResult::Summary() const {
+  char buf[320];
+  std::snprintf(buf, sizeof buf, "%s: NSGS %d sweeps%s (%.3f ms), Newton %d steps, %d factorisations (%.3f ms), error %.3e, %s",
+                FcMethodName(method), nsgs.iterations, nsgs.stagnated ? " until stagnation" : "",
+                1e3 * nsgs_seconds, newton.iterations, newton.factorizations, 1e3 * newton_seconds, error,
+                FcStopName(stop));
+  return buf;
+}
+
+namespace {
+
+double Since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+void RunNsgs(const FcProblem& p, EFcMethod method, const FcMethodParams& params, double budget,
+             Eigen::VectorXd* r, FcMethodResult* out) {
+  const auto t0 = std::chrono::steady_clock::now();
+  FcSolveParams sp;
+  sp.nsgs.tolerance = params.tolerance;
+  sp.nsgs.max_iterations = params.max_sweeps;
+  sp.nsgs.over_relaxation = params.over_relaxation;
+  sp.nsgs.order = params.order;
+  sp.nsgs.extrapolate_every = params.extrapolate_every;
+  sp.nsgs.time_budget_s = budget;
+  if (method == EFcMethod::Auto) {
+    sp.nsgs.stagnation_window = params.stagnation_window;
+    sp.nsgs.stagnation_ratio = params.stagnation_ratio;
+  }
+  out->nsgs = SolveFcProblem(p, sp, r).nsgs;
+  out->nsgs_seconds = Since(t0);
+  out->error = out->nsgs.error;
+  out->converged = out->nsgs.converged;
+  out->stop = out->nsgs.converged        ? EFcStop::Converged
+              : out->nsgs.stagnated      ? EFcStop::Stagnated
+              : out->nsgs.budget_stopped ? EFcStop::TimeCap
+                                         : EFcStop::IterationCap;
+}
+
+void RunNewton(const FcProblem& p, const FcMethodParams& params, double budget, Eigen::VectorXd* r,
+               FcMethodResult* out) {
+  const auto t0 = std::chrono::steady_clock::now();
+  FcNewtonParams np;
+  np.tolerance = params.tolerance;
+  np.max_iterations = params.max_newton;
+  np.time_budget_s = budget;
+  out->newton = SolveFcNewton(p, np, r);
+  out->newton_ran = true;
+  out->newton_seconds = Since(t0);
+  out->error = out->newton.error;
+  out->converged = out->newton.converged;
+  out->stop = out->newton.stop;
+}
+
+// True when r "solves" p only because |r| is huge: the relative error is small, but
+// |r| mean(diag W) exceeds 1e4 |q| and the error relative to |q| alone is not. An
+// infeasible problem (a body squeezed between two closing walls) gives this: the
+// forces grow without bound while their relative error falls.
+bool UnboundedForces(const FcProblem& p, const Eigen::VectorXd& r, double tolerance) {
+  const double q = p.q.norm(), diag = p.W.diagonal().mean();
+  if (!(r.norm() * diag > 1e4 * q)) return false;
+  const Eigen::VectorXd u = p.W * r + p.q;
+  double num = 0.0;
+  for (int c = 0; c < p.contacts; ++c) num += LocalErrorSquared(r.segment<3>(3 * c), u.segment<3>(3 * c), p.mu[c]);
+  return std::sqrt(num) > tolerance * std::max(q, 2.220446049250313e-16);
+}
+
+}  // namespace
+
+FcMethodResult SolveFcMethod(const FcProblem& p, EFcMethod method, const FcMethodParams& params,
+                             Eigen::VectorXd* r) {
+  const auto t0 = std::chrono::steady_clock::now();
+  FcMethodResult out;
+  out.method = method;
+  if (r->size() != 3 * p.contacts) r->setZero(3 * p.contacts);
+  if (method != EFcMethod::Newton) RunNsgs(p, method, params, params.time_budget_s, r, &out);
+  const bool budget_left = params.time_budget_s <= 0.0 || Since(t0) < params.time_budget_s;
+  if (method == EFcMethod::Newton || (method == EFcMethod::Auto && !out.converged && budget_left)) {
+    const double budget = params.time_budget_s > 0.0 ? params.time_budget_s - Since(t0) : 0.0;
+    const Eigen::VectorXd from_nsgs = *r;
+    const double nsgs_error = out.error;
+    RunNewton(p, params, budget, r, &out);
+    if (method == EFcMethod::Auto && out.newton_ran && !(out.error < nsgs_error)) {
+      *r = from_nsgs;  // Newton found nothing better: keep NSGS's forces, and Newton's stop reason
+      out.error = nsgs_error;
+    }
+  }
+  if (out.converged && UnboundedForces(p, *r, params.tolerance)) {
+    out.converged = false;
+    out.stop = EFcStop::Diverged;
+  }
+  out.seconds = Since(t0);
+  return out;
+}
+
+}  // namespace gs

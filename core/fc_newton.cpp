@@ -1,0 +1,218 @@
+#include "core/fc_newton.h"
+
+#include <Eigen/SparseLU>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+namespace gs {
+
+const char* FcStopName(EFcStop stop) {
+  switch (stop) {
+    case EFcStop::Converged: return "converged";
+    case EFcStop::IterationCap: return "iteration cap reached";
+    case EFcStop::TimeCap: return "time budget reached";
+    case EFcStop::Stagnated: return "stagnated (no progress)";
+    case EFcStop::LineSearchFailed: return "line search failed (no step reduces the Alart-Curnier residual)";
+    case EFcStop::Diverged: return "forces grow without bound: the problem is likely infeasible";
+  }
+  return "unknown";
+}
+
+namespace {
+
+using ColMatrix = Eigen::SparseMatrix<double, Eigen::ColMajor, int>;
+
+// The Alart-Curnier function of a problem with W + sigma I and free velocity
+// q - sigma centre, its Jacobian J = A + B (W + sigma I) with A, B block diagonal.
+class AlartCurnier {
+ public:
+  explicit AlartCurnier(const FcProblem& p) : p_(p), W_(p.W), rho_(p.contacts) {
+    const int m = 3 * p.contacts;
+    double trace = 0.0;
+    for (int c = 0; c < p.contacts; ++c) {
+      const double d = std::max({p.W.coeff(3 * c, 3 * c), p.W.coeff(3 * c + 1, 3 * c + 1),
+                                 p.W.coeff(3 * c + 2, 3 * c + 2)});
+      rho_[c] = 1.0 / d;
+      trace += p.W.coeff(3 * c, 3 * c) + p.W.coeff(3 * c + 1, 3 * c + 1) + p.W.coeff(3 * c + 2, 3 * c + 2);
+    }
+    mean_diag_ = trace / m;
+    // B and A + sigma B with all 9 entries of every diagonal block stored: a fixed pattern
+    std::vector<Eigen::Triplet<double>> trip;
+    trip.reserve(9 * static_cast<size_t>(p.contacts));
+    for (int c = 0; c < p.contacts; ++c)
+      for (int j = 0; j < 3; ++j)
+        for (int i = 0; i < 3; ++i) trip.emplace_back(3 * c + i, 3 * c + j, 1.0);
+    B_.resize(m, m);
+    B_.setFromTriplets(trip.begin(), trip.end());
+    D_ = B_;
+    u_.resize(m);
+  }
+
+  double MeanDiagonal() const { return mean_diag_; }
+
+  /// u = W r + q (the original problem's velocities).
+  const Eigen::VectorXd& Velocity(const Eigen::VectorXd& r) {
+    u_.noalias() = W_ * r;
+    u_ += p_.q;
+    return u_;
+  }
+
+  /// phi_sigma at r (proximal centre `centre`), and when `jacobian`, A and B.
+  void Evaluate(const Eigen::VectorXd& r, const Eigen::VectorXd& centre, double sigma, Eigen::VectorXd* phi,
+                bool jacobian) {
+    Velocity(r);
+    u_ += sigma * (r - centre);
+    for (int c = 0; c < p_.contacts; ++c) {
+      Mat3 A, B;
+      const Vec3 f = Local(c, r.segment<3>(3 * c), u_.segment<3>(3 * c), jacobian ? &A : nullptr, &B);
+      phi->segment<3>(3 * c) = f;
+      if (!jacobian) continue;
+      SetBlock(&B_, c, B);
+      SetBlock(&D_, c, A + sigma * B);
+    }
+  }
+
+  /// J = A + sigma B + B W for the last Evaluate with a Jacobian.
+  void Jacobian(ColMatrix* J) const {
+    *J = B_ * W_;
+    *J += D_;
+  }
+
+ private:
+  Vec3 Local(int c, const Vec3& r, const Vec3& u, Mat3* A, Mat3* B) const {
+    const double rho = rho_[c], mu = p_.mu[c];
+    const double zn = r[0] - rho * u[0];
+    const bool active = zn > 0.0;
+    const double radius = mu * std::max(0.0, zn);
+    const Eigen::Vector2d rt = r.tail<2>(), zt = rt - rho * u.tail<2>();
+    const double nz = zt.norm();
+    Vec3 f;
+    f[0] = active ? rho * u[0] : r[0];
+    Mat3 a = Mat3::Zero(), b = Mat3::Zero();
+    if (active) b(0, 0) = rho;
+    else a(0, 0) = 1.0;
+    if (!(radius > 0.0)) {  // no friction available: r_T = 0
+      f.tail<2>() = rt;
+      a.bottomRightCorner<2, 2>().setIdentity();
+    } else if (nz <= radius) {  // stick
+      f.tail<2>() = rt - zt;
+      b.bottomRightCorner<2, 2>() = rho * Eigen::Matrix2d::Identity();
+    } else {  // slide: r_T - radius zt / |zt|
+      const Eigen::Vector2d zh = zt / nz;
+      const Eigen::Matrix2d Q = (radius / nz) * (Eigen::Matrix2d::Identity() - zh * zh.transpose());
+      f.tail<2>() = rt - radius * zh;
+      a.bottomRightCorner<2, 2>() = Eigen::Matrix2d::Identity() - Q;
+      a.block<2, 1>(1, 0) = -mu * zh;
+      b.bottomRightCorner<2, 2>() = rho * Q;
+      b.block<2, 1>(1, 0) = mu * rho * zh;
+    }
+    if (A) *A = a;
+    *B = b;
+    return f;
+  }
+
+  static void SetBlock(ColMatrix* M, int c, const Mat3& blk) {
+    for (int j = 0; j < 3; ++j) {
+      // column 3c + j holds rows 3c, 3c + 1, 3c + 2 contiguously
+      double* v = M->valuePtr() + M->outerIndexPtr()[3 * c + j];
+      for (int i = 0; i < 3; ++i) v[i] = blk(i, j);
+    }
+  }
+
+  const FcProblem& p_;
+  ColMatrix W_, B_, D_;
+  std::vector<double> rho_;
+  double mean_diag_ = 1.0;
+  Eigen::VectorXd u_;
+};
+
+double SiconosErrorOf(const FcProblem& p, const Eigen::VectorXd& r, const Eigen::VectorXd& u) {
+  double num = 0.0;
+  for (int c = 0; c < p.contacts; ++c)
+    num += LocalErrorSquared(r.segment<3>(3 * c), u.segment<3>(3 * c), p.mu[c]);
+  const double den = std::max({p.q.norm(), r.norm(), u.norm()});
+  return den > 2.220446049250313e-16 ? std::sqrt(num) / den : std::sqrt(num);
+}
+
+}  // namespace
+
+FcNewtonResult SolveFcNewton(const FcProblem& p, const FcNewtonParams& params, Eigen::VectorXd* r) {
+  FcNewtonResult res;
+  const auto t0 = std::chrono::steady_clock::now();
+  const int m = 3 * p.contacts;
+  if (r->size() != m) r->setZero(m);
+  AlartCurnier ac(p);
+  res.error = SiconosErrorOf(p, *r, ac.Velocity(*r));
+  Eigen::VectorXd best = *r, phi(m), trial_phi(m), d(m), trial(m), centre = *r;
+  double best_error = res.error;
+  const double sigma_min = 1e-12 * ac.MeanDiagonal(), sigma_max = 1e8 * ac.MeanDiagonal();
+  // forces beyond this are taken as divergence: far above any force that balances q
+  const double force_limit = 1e12 * std::max(1.0, p.q.norm() / ac.MeanDiagonal());
+  double sigma = params.sigma0 * ac.MeanDiagonal();
+  ColMatrix J;
+  Eigen::SparseLU<ColMatrix, Eigen::COLAMDOrdering<int>> lu;
+  bool analysed = false;
+  res.stop = EFcStop::IterationCap;
+  while (best_error > params.tolerance) {
+    if (res.factorizations >= params.max_iterations) break;
+    const double spent = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (params.time_budget_s > 0.0 && spent > params.time_budget_s) {
+      res.stop = EFcStop::TimeCap;
+      break;
+    }
+    centre = *r;
+    ac.Evaluate(*r, centre, sigma, &phi, true);
+    ac.Jacobian(&J);
+    if (!analysed) {
+      lu.analyzePattern(J);
+      analysed = true;
+    }
+    lu.factorize(J);
+    ++res.factorizations;
+    if (lu.info() != Eigen::Success) {
+      sigma = std::min(sigma_max, 10.0 * sigma);
+      continue;
+    }
+    d = lu.solve(-phi);
+    const double norm0 = phi.norm();
+    double t = 1.0;
+    bool accepted = false;
+    for (int k = 0; k < 30 && d.allFinite(); ++k, t *= 0.5) {
+      trial = *r + t * d;
+      ac.Evaluate(trial, centre, sigma, &trial_phi, false);
+      if (trial_phi.norm() <= (1.0 - 1e-4 * t) * norm0) {
+        accepted = true;
+        break;
+      }
+    }
+    if (!accepted) {
+      if (sigma >= sigma_max) {
+        res.stop = EFcStop::LineSearchFailed;
+        break;
+      }
+      sigma = std::min(sigma_max, 10.0 * sigma);
+      continue;
+    }
+    ++res.iterations;
+    *r = trial;
+    sigma = t == 1.0 ? std::max(sigma_min, 0.25 * sigma) : std::min(sigma_max, 2.0 * sigma);
+    const double e = SiconosErrorOf(p, *r, ac.Velocity(*r));
+    if (e < best_error) {
+      best_error = e;
+      best = *r;
+    }
+    if (!(r->norm() < force_limit)) {
+      res.stop = EFcStop::Diverged;
+      break;
+    }
+  }
+  if (best_error <= params.tolerance) res.stop = EFcStop::Converged;
+  *r = best;
+  res.error = best_error;
+  res.converged = res.stop == EFcStop::Converged;
+  res.sigma = sigma;
+  return res;
+}
+
+}  // namespace gs

@@ -1,0 +1,64 @@
+// A second solver for explicit frictional contact problems (FcProblem), for
+// what Gauss-Seidel cannot finish: a semi-smooth Newton method on the
+// Alart-Curnier function of the exact Coulomb law, regularised by a proximal
+// term, with a backtracking line search.
+//
+// Alart-Curnier, per contact, with rho_c = 1 / max diag(W_cc):
+//   phi_N = r_N - max(0, r_N - rho u_N)
+//   phi_T = r_T - P_{disc of radius mu max(0, r_N - rho u_N)}(r_T - rho u_T)
+// phi(r) = 0 exactly when r solves the Coulomb problem (u = W r + q), the same
+// solutions as Siconos' error measure (local_solver.h) recognises.
+//
+// Proximal Newton: each step solves J_sigma d = -phi(r), with J_sigma the
+// generalised Jacobian of phi for W + sigma I (the problem whose proximal centre
+// is the current r), so the system stays non-singular when W is rank-deficient
+// (statically indeterminate contacts) and the step is damped along W's null
+// space. The step length halves until |phi_sigma(r + t d)| <= (1 - 1e-4 t)|phi(r)|.
+// sigma starts at sigma0 mean(diag W), shrinks (x 1/4) after a full step, doubles
+// after a shortened one and grows (x 10) after a failed search,
+// so the method becomes plain semi-smooth Newton near a solution and a proximal
+// point iteration far from it. The linear system is factorised by Eigen's sparse
+// LU (its pattern analysed once). The convergence test is Siconos' error of the
+// original problem (sigma = 0), and the forces returned are the best seen.
+#pragma once
+
+#include <Eigen/Core>
+
+#include "core/fc_problem.h"
+
+namespace gs {
+
+/// Why a solve ended.
+enum class EFcStop {
+  Converged,         ///< Siconos error <= tolerance
+  IterationCap,      ///< the cap on iterations (sweeps or Newton steps) was reached
+  TimeCap,           ///< the time budget ran out
+  Stagnated,         ///< the method stopped making progress (NSGS: stagnation rule)
+  LineSearchFailed,  ///< Newton: no step reduced the merit even with the largest proximal weight
+  Diverged,          ///< the forces grew without bound: the problem is likely infeasible
+};
+
+/// A sentence for a stop reason, e.g. "iteration cap reached".
+const char* FcStopName(EFcStop stop);
+
+struct FcNewtonParams {
+  double tolerance = 1e-6;     ///< on the Siconos error of the original problem
+  int max_iterations = 200;    ///< Newton steps (each one LU factorisation)
+  double time_budget_s = 0.0;  ///< 0: none
+  double sigma0 = 1e-4;        ///< initial proximal weight, relative to the mean diagonal of W
+};
+
+struct FcNewtonResult {
+  int iterations = 0;         ///< Newton steps taken
+  int factorizations = 0;     ///< LU factorisations (a failed one counts)
+  double error = 0.0;         ///< Siconos error of the returned forces
+  bool converged = false;
+  EFcStop stop = EFcStop::IterationCap;
+  double sigma = 0.0;         ///< the last proximal weight (absolute)
+};
+
+/// Solves from the forces in *r (zeroed when its size is not 3n); leaves the
+/// best forces found in *r. Never more than max_iterations factorisations.
+FcNewtonResult SolveFcNewton(const FcProblem& p, const FcNewtonParams& params, Eigen::VectorXd* r);
+
+}  // namespace gs
