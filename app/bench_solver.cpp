@@ -1,5 +1,5 @@
-// `graspsim bench solver [--json] [--quick]`: our solver (SolveFcProblem,
-// core/fc_problem.h) side by side with three Siconos Numerics solvers, NSGS,
+// `graspsim bench solver [--json] [--quick]`: our solver (auto: SolveFcMethod,
+// core/fc_fallback.h) side by side with three Siconos Numerics solvers, NSGS,
 // NSN-AC (semi-smooth Newton on Alart-Curnier) and PROX, on the same problems:
 // random rigid-body stacks, the two real FCLIB samples of tests/data/fclib/, the
 // paper grasp's own contact problem (full run only), and generated families hard for
@@ -38,6 +38,7 @@
 #include "app/paths.h"
 #include "app/scene_file.h"
 #include "app/siconos_ref.h"
+#include "core/fc_fallback.h"
 #include "core/fc_families.h"
 #include "core/world.h"
 #ifdef GRASPSIM_HAVE_FCLIB
@@ -101,10 +102,11 @@ bool InCi() {
   return ci && *ci && std::strcmp(ci, "0") != 0 && std::strcmp(ci, "false") != 0;
 }
 
-FcSolveParams OurParams() {
-  FcSolveParams params;
-  params.nsgs.tolerance = kTarget;
-  params.nsgs.max_iterations = kOurSweepCap;
+// ours is what `graspsim solve` runs by default: auto (NSGS, then Newton when it stalls)
+FcMethodParams OurParams() {
+  FcMethodParams params;
+  params.tolerance = kTarget;
+  params.max_sweeps = kOurSweepCap;
   return params;
 }
 
@@ -118,14 +120,12 @@ Outcome DecideOurs(const FcProblem& p) {
   Outcome o;
   o.ran = true;
   Eigen::VectorXd r;
-  const FcSolveResult res = SolveFcProblem(p, OurParams(), &r);
-  o.iterations = res.nsgs.iterations;
+  const FcMethodResult res = SolveFcMethod(p, EFcMethod::Auto, OurParams(), &r);
+  o.iterations = res.nsgs.iterations + res.newton.iterations;
   o.error = FcError(p, r);
   o.first_s = res.seconds;
   o.solved = o.error <= kTarget;
-  if (!o.solved)
-    o.stop = res.nsgs.iterations >= kOurSweepCap ? "sweep cap " + std::to_string(kOurSweepCap)
-                                                 : "stopped after " + std::to_string(res.nsgs.iterations) + " sweeps";
+  if (!o.solved) o.stop = res.Summary();
   return o;
 }
 
@@ -183,7 +183,7 @@ void TimeSample(const FcProblem& p, Solver s, Outcome* o) {
   for (int k = 0; k < o->batch; ++k) {
     if (s == kOurs) {
       Eigen::VectorXd r;
-      SolveFcProblem(p, OurParams(), &r);
+      SolveFcMethod(p, EFcMethod::Auto, OurParams(), &r);
     } else {
       SolveWithSiconos(p, kInfo[s].which, o->tolerance, kInfo[s].cap);
     }
