@@ -405,8 +405,8 @@ NsgsResult SolveNsgs(Op& op, Vec3* r, const NsgsParams& p, NsgsScratch& s) {
         break;
       }
     }
-    if (stagnation.Stalled(estimate, res.iterations, p)) {
-      res.error = SiconosError(op, r);
+    if (stagnation.Stalled(estimate.stop, res.iterations, p)) {
+      SetErrors(&res, ExactErrors(op, r, p));
       ++res.exact_checks;
       res.converged = res.error <= p.tolerance;
       res.stagnated = !res.converged;
