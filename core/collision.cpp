@@ -5,6 +5,8 @@
 #include <cmath>
 #include <limits>
 
+#include <Eigen/Eigenvalues>
+
 namespace gs {
 namespace {
 
@@ -479,6 +481,73 @@ bool ProjectNear(const SphereTree& ts, const Vec3* pos, const Vec3* nrm, const V
   return false;
 }
 
+// Below this curvature (1/m: radius 1 m) a direction is taken as flat in CommonNormal.
+constexpr double kFlatCurvature = 1.0;
+// normals more than 60 degrees apart are no pair of touching smooth surfaces
+constexpr double kMaxPairAngle = M_PI / 3;
+
+// A shape operator (tangent to its surface's normal n) read along the directions
+// b1, b2 of another tangent plane, each carried into n's plane first: where the
+// planes differ by an angle, a plain B^T K B would shrink the curvature by its cos^2.
+Eigen::Matrix2d Restrict(const Mat3& k, const Vec3& n, const Vec3& b1, const Vec3& b2) {
+  Eigen::Matrix<double, 3, 2> U;
+  U << (b1 - b1.dot(n) * n).normalized(), (b2 - b2.dot(n) * n).normalized();
+  return U.transpose() * k * U;
+}
+
+// The common normal of two smooth surfaces, from one query point x on Q projected
+// onto S. x sits at an unknown tangential offset t from where the surfaces touch:
+// the foot's normal n_s has turned by K_s t from the common normal n0, Q's own
+// normal at x by K_q t the other way (K the shape operators, turning angles). The
+// angle from n_s to -n_q is therefore (K_s + K_q) t, which gives t, and n0 is n_s
+// turned back by K_s t toward -n_q. A flat wall's point on a fingertip takes the
+// wall's normal, a fingertip's point on the wall the wall's, two equal spheres the
+// centre line. Directions in which the pair is flat (or concave) keep n_s's tilt.
+// All in S's frame; n_s and n_q unit; plane_s, plane_q the normals of the planes
+// the shape operators k_s, k_q are tangent to.
+Vec3 CommonNormal(const Vec3& n_s, const Mat3& k_s, const Vec3& plane_s, const Vec3& n_q, const Mat3& k_q,
+                  const Vec3& plane_q) {
+  const Vec3 w = -n_q - (-n_q).dot(n_s) * n_s;  // toward -n_q, tangent to S
+  const double sin_phi = w.norm();
+  const double phi = std::atan2(sin_phi, -n_q.dot(n_s));
+  if (!(sin_phi > 1e-12) || !(phi < kMaxPairAngle)) return n_s;
+  const Vec3 b1 = w / sin_phi;
+  const Vec3 b2 = n_s.cross(b1);
+  Eigen::Matrix<double, 3, 2> B;
+  B << b1, b2;
+  const Eigen::Matrix2d ks = Restrict(k_s, plane_s, b1, b2);
+  const Eigen::Matrix2d m = ks + Restrict(k_q, plane_q, b1, b2);
+  // t = -(K_s + K_q)^-1 phi b1 over the curved directions; the turn back is -K_s t
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig;
+  eig.computeDirect(m);
+  Eigen::Vector2d t = Eigen::Vector2d::Zero();
+  for (int i = 0; i < 2; ++i) {
+    const double l = eig.eigenvalues()[i];
+    if (!(l > kFlatCurvature)) continue;
+    const Eigen::Vector2d v = eig.eigenvectors().col(i);
+    t -= v * (v.x() * phi / l);
+  }
+  const Eigen::Vector2d turn = -ks * t;
+  const double angle = turn.norm();
+  if (!(angle > 1e-12)) return n_s;
+  return std::cos(angle) * n_s + std::sin(angle) * (B * turn / angle);
+}
+
+// The contact normal of query leaf lq (Q) projected onto S near leaf ls, in S's
+// frame: the common normal from both leaves' patches, or the foot's normal when
+// either leaf has no patch.
+Vec3 PairNormal(const SphereTree& tq, int lq, const Pose& q_to_s, const SphereTree& ts, int ls,
+                const MlsProjection& proj) {
+  const MlsPatch* pq = tq.leaf_patch(lq);
+  const MlsPatch* ps = ts.leaf_patch(ls);
+  if (!pq || !ps) return proj.normal;
+  const Mat3& R = q_to_s.R;
+  const Vec3 n_q = R * pq->NormalBelow(tq.control_point(lq));
+  const Mat3 k_q = R * pq->Shape() * R.transpose();
+  const Vec3 n = CommonNormal(proj.normal, ps->Shape(), ps->normal, n_q, k_q, R * pq->normal);
+  return n.allFinite() ? n : proj.normal;
+}
+
 // projects the control points of the query body onto the surface body's MLS surface
 // for every query leaf that has a coupled leaf in best[]; consumes `touched`
 void ProjectSide(int id_q, const SphereTree& tq, const Pose& q_to_s, int id_s, const CollisionShape& surf,
@@ -515,11 +584,11 @@ void ProjectSide(int id_q, const SphereTree& tq, const Pose& q_to_s, int id_s, c
       ++stats->rejected;
       continue;
     }
-    // a projection outside the coupled node's border is a curvature artefact
-    const TreeNode& node = ts.node(ts.leaf_node(coupled));
-    const double reach = node.rest_radius + ts.border();
-    if ((proj.point - node.center).squaredNorm() > reach * reach) {
+    // a projection outside the coupled node's border is a curvature artefact (the
+    // node coupled by the traversal, not the leaf the projection ended in)
+    if (params.curvature_rejection && !WithinCoupledBorder(ts, ls, proj.point)) {
       ++stats->rejected;
+      ++stats->out_of_border;
       continue;
     }
     const double gap = (x - proj.point).dot(proj.normal);  // eq. 4: negative inside
@@ -546,7 +615,7 @@ void ProjectSide(int id_q, const SphereTree& tq, const Pose& q_to_s, int id_s, c
     c.surface_leaf = coupled;
     c.anchor[0] = tq.control_point(lq);
     c.anchor[1] = proj.point;
-    c.normal = pose_s.Rotate(proj.normal);
+    c.normal = pose_s.Rotate(params.common_normal ? PairNormal(tq, lq, q_to_s, ts, coupled, proj) : proj.normal);
     c.gap = gap;
     c.key = ContactKey(id_q, id_s, lq);
     if (out->Push(c)) ++stats->contacts;
@@ -634,12 +703,19 @@ bool ProjectOntoSurfaceFrom(const Vec3* positions, const Vec3* normals, const in
   return ok;
 }
 
+bool WithinCoupledBorder(const SphereTree& ts, int coupled_leaf, const Vec3& foot) {
+  const TreeNode& node = ts.node(ts.leaf_node(coupled_leaf));
+  const double reach = node.rest_radius + ts.border();
+  return (foot - node.center).squaredNorm() <= reach * reach;
+}
+
 void CollisionStats::Add(const CollisionStats& o) {
   node_pairs += o.node_pairs;
   leaf_pairs += o.leaf_pairs;
   projections += o.projections;
   fits += o.fits;
   rejected += o.rejected;
+  out_of_border += o.out_of_border;
   culled += o.culled;
   contacts += o.contacts;
   dropped += o.dropped;
