@@ -23,9 +23,13 @@ struct ValidationOptions {
 
 /// A block on a plane tilted at atan(mu) x (1 -+ 1%): sticks below, slides above.
 std::vector<ValidationResult> ValidateIncline(const ValidationOptions& opt);
-/// A hexagonal prism pinched by three fingertips pushing with force P: holds for
-/// mu >= 1.005 mu*, falls for mu <= 0.995 mu*, mu* = m g / (3 P).
+/// A hexagonal prism or a cylinder pinched by three fingertips pushing with force
+/// P: holds for mu >= 1.005 mu*, falls for mu <= 0.995 mu*, slides at
+/// g (1 - mu / mu*) below mu* = m g / (3 P); both contact modes.
 std::vector<ValidationResult> ValidatePinch(const ValidationOptions& opt);
+/// A fingertip dragged along a flat face at constant normal force: the tangential
+/// over the normal force is mu at every step (no ripple), in both contact modes.
+std::vector<ValidationResult> ValidateSlide(const ValidationOptions& opt);
 /// A Boussinesq sphere pressed on a rigid plane: F ~ d^1.5 and a = sqrt(R d).
 std::vector<ValidationResult> ValidateHertz(const ValidationOptions& opt);
 

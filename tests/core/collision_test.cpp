@@ -702,37 +702,3 @@ TEST(Collision, DISABLED_MeasureEq8Truncation) {
 
 }  // namespace
 }  // namespace gs
-namespace gs {
-namespace {
-TEST(Collision, DISABLED_DebugSpheres) {
-  auto fa = Make(Ball(0.01), 3000, 400, 7);
-  auto fb = Make(Ball(0.01), 3000, 400, 8);
-  for (int l = 0; l < 400; l += 50) {
-    const MlsPatch* p = fa->geom.tree.leaf_patch(l);
-    if (!p) { std::printf("leaf %d no patch\n", l); continue; }
-    Eigen::SelfAdjointEigenSolver<Mat3> e(p->Shape());
-    std::printf("leaf %d: shape eig %.2f %.2f %.2f, n.cp %.5f, h %.3g c %.4g %.4g %.4g %.4g %.4g %.4g\n", l, e.eigenvalues()[0], e.eigenvalues()[1],
-                e.eigenvalues()[2], p->NormalBelow(fa->geom.tree.control_point(l)).dot(fa->geom.tree.control_point(l).normalized()), p->h,
-                p->c[0], p->c[1], p->c[2], p->c[3], p->c[4], p->c[5]);
-  }
-  const Vec3 dir = Vec3::UnitZ();
-  const Pose pa{Mat3::Identity(), Vec3::Zero()};
-  const Pose pb{Mat3::Identity(), dir * (0.02 - 1e-3)};
-  CollisionParams params;
-  CollisionScratch scratch;
-  scratch.Reserve(400, 100000);
-  ContactBuffer buf;
-  buf.Reserve(100000);
-  CollidePair(0, fa->shape(), pa, 1, fb->shape(), pb, params, &scratch, &buf, nullptr);
-  for (const Contact& c : buf.items) {
-    const Vec3 line = c.body[0] == 0 ? -dir : dir;
-    const double ang = std::acos(std::clamp(c.normal.dot(line), -1.0, 1.0)) * 180 / M_PI;
-    if (ang < 2) continue;
-    const Fixture& q = c.body[0] == 0 ? *fa : *fb;
-    const Vec3 cp = q.geom.tree.control_point(c.leaf);
-    std::printf("body0 %d leaf %d: angle %.2f deg, gap %.3g, cp lateral %.3g mm, n %.3f %.3f %.3f\n", c.body[0], c.leaf, ang, c.gap,
-                1e3 * std::hypot(cp.x(), cp.y()), c.normal.x(), c.normal.y(), c.normal.z());
-  }
-}
-}  // namespace
-}  // namespace gs
