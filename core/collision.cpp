@@ -5,7 +5,6 @@
 #include <cmath>
 #include <limits>
 
-#include <Eigen/Eigenvalues>
 
 namespace gs {
 namespace {
@@ -486,13 +485,31 @@ constexpr double kFlatCurvature = 1.0;
 // normals more than 60 degrees apart are no pair of touching smooth surfaces
 constexpr double kMaxPairAngle = M_PI / 3;
 
-// A shape operator (tangent to its surface's normal n) read along the directions
-// b1, b2 of another tangent plane, each carried into n's plane first: where the
+// A patch's shape operator (MlsPatch::Shape, 1/m) read along the directions b1, b2
+// (the patch's frame), each carried into the patch's tangent plane first: where the
 // planes differ by an angle, a plain B^T K B would shrink the curvature by its cos^2.
-Eigen::Matrix2d Restrict(const Mat3& k, const Vec3& n, const Vec3& b1, const Vec3& b2) {
-  Eigen::Matrix<double, 3, 2> U;
-  U << (b1 - b1.dot(n) * n).normalized(), (b2 - b2.dot(n) * n).normalized();
-  return U.transpose() * k * U;
+Eigen::Matrix2d ShapeAlong(const MlsPatch& p, const Vec3& b1, const Vec3& b2) {
+  const Vec3 u1 = (b1 - b1.dot(p.normal) * p.normal).normalized();
+  const Vec3 u2 = (b2 - b2.dot(p.normal) * p.normal).normalized();
+  Eigen::Matrix2d A, K;
+  A << u1.dot(p.t1), u2.dot(p.t1), u1.dot(p.t2), u2.dot(p.t2);
+  K << 2.0 * p.c[3], p.c[4], p.c[4], 2.0 * p.c[5];
+  return A.transpose() * K * A * (-1.0 / p.h);
+}
+
+// x solving m x = -phi e1 over the eigen-directions of the symmetric m whose
+// eigenvalue exceeds kFlatCurvature (0 along the others)
+Eigen::Vector2d OffsetFrom(const Eigen::Matrix2d& m, double phi) {
+  const double a = m(0, 0), b = m(0, 1), d = m(1, 1);
+  const double mean = 0.5 * (a + d), r = std::hypot(0.5 * (a - d), b);
+  const double l1 = mean + r, l2 = mean - r;
+  if (!(l1 > kFlatCurvature)) return Eigen::Vector2d::Zero();
+  if (l2 > kFlatCurvature) return Eigen::Vector2d(-d, b) * (phi / (a * d - b * b));
+  // one curved direction: the eigenvector of l1 is a column of m - l2 I
+  Eigen::Vector2d v(a - l2, b);
+  if (v.squaredNorm() < 1e-24) v = Eigen::Vector2d(b, d - l2);
+  v.normalize();
+  return -v * (v.x() * phi / l1);
 }
 
 // The common normal of two smooth surfaces, from one query point x on Q projected
@@ -503,48 +520,36 @@ Eigen::Matrix2d Restrict(const Mat3& k, const Vec3& n, const Vec3& b1, const Vec
 // turned back by K_s t toward -n_q. A flat wall's point on a fingertip takes the
 // wall's normal, a fingertip's point on the wall the wall's, two equal spheres the
 // centre line. Directions in which the pair is flat (or concave) keep n_s's tilt.
-// All in S's frame; n_s and n_q unit; plane_s, plane_q the normals of the planes
-// the shape operators k_s, k_q are tangent to.
-Vec3 CommonNormal(const Vec3& n_s, const Mat3& k_s, const Vec3& plane_s, const Vec3& n_q, const Mat3& k_q,
-                  const Vec3& plane_q) {
+// In S's frame (R turns Q's frame into it); n_s and n_q unit; ps, pq the leaves'
+// patches (each in its body's frame).
+Vec3 CommonNormal(const Vec3& n_s, const MlsPatch& ps, const Vec3& n_q, const MlsPatch& pq, const Mat3& R) {
   const Vec3 w = -n_q - (-n_q).dot(n_s) * n_s;  // toward -n_q, tangent to S
   const double sin_phi = w.norm();
   const double phi = std::atan2(sin_phi, -n_q.dot(n_s));
   if (!(sin_phi > 1e-12) || !(phi < kMaxPairAngle)) return n_s;
   const Vec3 b1 = w / sin_phi;
   const Vec3 b2 = n_s.cross(b1);
-  Eigen::Matrix<double, 3, 2> B;
-  B << b1, b2;
-  const Eigen::Matrix2d ks = Restrict(k_s, plane_s, b1, b2);
-  const Eigen::Matrix2d m = ks + Restrict(k_q, plane_q, b1, b2);
-  // t = -(K_s + K_q)^-1 phi b1 over the curved directions; the turn back is -K_s t
-  Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig;
-  eig.computeDirect(m);
-  Eigen::Vector2d t = Eigen::Vector2d::Zero();
-  for (int i = 0; i < 2; ++i) {
-    const double l = eig.eigenvalues()[i];
-    if (!(l > kFlatCurvature)) continue;
-    const Eigen::Vector2d v = eig.eigenvectors().col(i);
-    t -= v * (v.x() * phi / l);
-  }
-  const Eigen::Vector2d turn = -ks * t;
+  const Eigen::Matrix2d ks = ShapeAlong(ps, b1, b2);
+  const Eigen::Matrix2d m = ks + ShapeAlong(pq, R.transpose() * b1, R.transpose() * b2);
+  const Eigen::Vector2d turn = -ks * OffsetFrom(m, phi);
   const double angle = turn.norm();
   if (!(angle > 1e-12)) return n_s;
-  return std::cos(angle) * n_s + std::sin(angle) * (B * turn / angle);
+  return std::cos(angle) * n_s + (std::sin(angle) / angle) * (turn.x() * b1 + turn.y() * b2);
 }
 
 // The contact normal of query leaf lq (Q) projected onto S near leaf ls, in S's
 // frame: the common normal from both leaves' patches, or the foot's normal when
-// either leaf has no patch.
+// either leaf has no patch or the foot's is flat (a face: its normal is the
+// common normal whatever Q's shape).
 Vec3 PairNormal(const SphereTree& tq, int lq, const Pose& q_to_s, const SphereTree& ts, int ls,
                 const MlsProjection& proj) {
   const MlsPatch* pq = tq.leaf_patch(lq);
   const MlsPatch* ps = ts.leaf_patch(ls);
   if (!pq || !ps) return proj.normal;
-  const Mat3& R = q_to_s.R;
-  const Vec3 n_q = R * pq->NormalBelow(tq.control_point(lq));
-  const Mat3 k_q = R * pq->Shape() * R.transpose();
-  const Vec3 n = CommonNormal(proj.normal, ps->Shape(), ps->normal, n_q, k_q, R * pq->normal);
+  const double* c = ps->c;
+  if (!(std::abs(c[3]) + std::abs(c[4]) + std::abs(c[5]) > 0.5 * kFlatCurvature * ps->h)) return proj.normal;
+  const Vec3 n_q = q_to_s.R * pq->NormalBelow(tq.control_point(lq));
+  const Vec3 n = CommonNormal(proj.normal, *ps, n_q, *pq, q_to_s.R);
   return n.allFinite() ? n : proj.normal;
 }
 
