@@ -127,7 +127,7 @@ SlideRun RunSlide(bool two_pass, bool rigid, double window) {
 std::vector<ValidationResult> ValidateSlide(const ValidationOptions& opt) {
   std::vector<ValidationResult> out;
   const double window = opt.quick ? 0.5 : 1.5;  // 1 or 3 cm of sliding (3 to 10 control-point spacings)
-  for (int rigid = 0; rigid < (opt.quick ? 1 : 2); ++rigid) {
+  for (int rigid = 0; rigid < 2; ++rigid) {
     for (int two_pass = 1; two_pass >= 0; --two_pass) {
       const SlideRun s = RunSlide(two_pass != 0, rigid != 0, window);
       char d[320];
