@@ -46,19 +46,19 @@ PinchRig AddPinchRig(World& w, const PinchRigSpec& spec, EGeometryError* error) 
   rig.table = AddBody(w, PlaneSpec("table", Pose{}), error);
   TriangleMesh mesh = HexagonalPrism(kCircumradius, kHeight);
   ValidateAndOrientMesh(&mesh);
+  const double apothem = kCircumradius * std::cos(M_PI / 6);
   BodySpec pr;
-  pr.name = "prism";
-  pr.mesh = &mesh;  // sampled inside AddBody
+  pr.name = spec.cylinder ? "cylinder" : "prism";
+  pr.mesh = spec.cylinder ? nullptr : &mesh;  // sampled inside AddBody
   pr.shape.type = EShape::Cylinder;  // inertia of the enclosing cylinder
-  pr.shape.radius = 0.0185;
+  pr.shape.radius = spec.cylinder ? apothem : 0.0185;
   pr.shape.half_length = 0.5 * kHeight;
   pr.geometry.points = spec.prism_points;
   pr.geometry.control_points = spec.prism_control_points;
   pr.mass = spec.prism_mass;
   pr.pose = Pose::Translation(Vec3(0, 0, 0.5 * kHeight));
-  pr.emits_contacts = false;  // one-pass contact: the fingertips' points on the flat faces
+  pr.emits_contacts = spec.two_pass;  // one-pass: only the fingertips' points on the faces
   rig.prism = AddBody(w, pr, error);
-  const double apothem = kCircumradius * std::cos(M_PI / 6);
   for (int k = 0; k < 3; ++k) {
     const double a = k * 2.0 * M_PI / 3.0;
     const Vec3 radial(std::cos(a), std::sin(a), 0);
@@ -69,7 +69,7 @@ PinchRig AddPinchRig(World& w, const PinchRigSpec& spec, EGeometryError* error) 
     t.geometry.points = 2400;
     t.geometry.control_points = 320;
     t.mass = 0.01;
-    t.deformation.model = EDeformation::Gaussian;
+    t.deformation.model = spec.rigid_tips ? EDeformation::Rigid : EDeformation::Gaussian;
     t.deformation.stiffness = 300;
     t.deformation.damping = 0.5;
     t.deformation.influence_radius = 0.0015;

@@ -18,7 +18,8 @@ BodySpec PlaneSpec(const std::string& name, const Pose& pose);
 /// 30 + k 60 degrees, so its side faces' normals point at k 60 degrees.
 TriangleMesh HexagonalPrism(double circumradius, double height);
 
-/// The three-finger pinch: a hexagonal prism (circumradius 2 cm, height 6 cm)
+/// The three-finger pinch: a hexagonal prism (circumradius 2 cm, height 6 cm; or a
+/// cylinder of radius 1.73 cm, the prism's apothem)
 /// standing on the table at the origin, and three Gaussian fingertips (radius
 /// 8 mm, 2,400 points, 320 control points) on its side faces 120 degrees apart,
 /// each driven toward the prism's axis with the constant force `squeeze_force`
@@ -28,6 +29,9 @@ struct PinchRigSpec {
   double squeeze_force = 1.0;   ///< N per fingertip
   int prism_points = 8000;
   int prism_control_points = 1000;
+  bool cylinder = false;        ///< a cylinder of the prism's apothem in its place
+  bool two_pass = false;        ///< the prism's control points touch the fingertips too (default: one-pass)
+  bool rigid_tips = false;      ///< fingertips without deformation
 };
 struct PinchRig {
   int table = -1, prism = -1;

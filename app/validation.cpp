@@ -15,6 +15,7 @@ struct Family {
 const Family kFamilies[] = {
     {"incline", ValidateIncline},
     {"pinch", ValidatePinch},
+    {"slide", ValidateSlide},
     {"hertz", ValidateHertz},
     {"paper-grasp", ValidatePaperGrasp},
     {"stack", ValidateStack},

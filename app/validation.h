@@ -25,9 +25,13 @@ struct ValidationOptions {
 /// 0.4 and 0.8: sticks below, slides at g (sin a - mu cos a) above; on the analytic
 /// plane and on a box slab in both contact modes.
 std::vector<ValidationResult> ValidateIncline(const ValidationOptions& opt);
-/// A hexagonal prism pinched by three fingertips pushing with force P: holds for
-/// mu >= 1.005 mu*, falls for mu <= 0.995 mu*, mu* = m g / (3 P).
+/// A hexagonal prism or a cylinder pinched by three fingertips pushing with force
+/// P: holds for mu >= 1.005 mu*, falls for mu <= 0.995 mu*, slides at
+/// g (1 - mu / mu*) below mu* = m g / (3 P); both contact modes.
 std::vector<ValidationResult> ValidatePinch(const ValidationOptions& opt);
+/// A fingertip dragged along a flat face at constant normal force: the tangential
+/// over the normal force is mu at every step (no ripple), in both contact modes.
+std::vector<ValidationResult> ValidateSlide(const ValidationOptions& opt);
 /// A Boussinesq sphere pressed on a rigid plane, and a rigid sphere on a Boussinesq
 /// box in both contact modes: exponent and contact radius against Sneddon's exact
 /// sphere on a half-space, depth against Hertz's for the scene's E and nu.

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 
+
 namespace gs {
 namespace {
 
@@ -479,6 +480,79 @@ bool ProjectNear(const SphereTree& ts, const Vec3* pos, const Vec3* nrm, const V
   return false;
 }
 
+// Below this curvature (1/m: radius 1 m) a direction is taken as flat in CommonNormal.
+constexpr double kFlatCurvature = 1.0;
+// normals more than 60 degrees apart are no pair of touching smooth surfaces
+constexpr double kMaxPairAngle = M_PI / 3;
+
+// A patch's shape operator (MlsPatch::Shape, 1/m) read along the directions b1, b2
+// (the patch's frame), each carried into the patch's tangent plane first: where the
+// planes differ by an angle, a plain B^T K B would shrink the curvature by its cos^2.
+Eigen::Matrix2d ShapeAlong(const MlsPatch& p, const Vec3& b1, const Vec3& b2) {
+  const Vec3 u1 = (b1 - b1.dot(p.normal) * p.normal).normalized();
+  const Vec3 u2 = (b2 - b2.dot(p.normal) * p.normal).normalized();
+  Eigen::Matrix2d A, K;
+  A << u1.dot(p.t1), u2.dot(p.t1), u1.dot(p.t2), u2.dot(p.t2);
+  K << 2.0 * p.c[3], p.c[4], p.c[4], 2.0 * p.c[5];
+  return A.transpose() * K * A * (-1.0 / p.h);
+}
+
+// x solving m x = -phi e1 over the eigen-directions of the symmetric m whose
+// eigenvalue exceeds kFlatCurvature (0 along the others)
+Eigen::Vector2d OffsetFrom(const Eigen::Matrix2d& m, double phi) {
+  const double a = m(0, 0), b = m(0, 1), d = m(1, 1);
+  const double mean = 0.5 * (a + d), r = std::hypot(0.5 * (a - d), b);
+  const double l1 = mean + r, l2 = mean - r;
+  if (!(l1 > kFlatCurvature)) return Eigen::Vector2d::Zero();
+  if (l2 > kFlatCurvature) return Eigen::Vector2d(-d, b) * (phi / (a * d - b * b));
+  // one curved direction: the eigenvector of l1 is a column of m - l2 I
+  Eigen::Vector2d v(a - l2, b);
+  if (v.squaredNorm() < 1e-24) v = Eigen::Vector2d(b, d - l2);
+  v.normalize();
+  return -v * (v.x() * phi / l1);
+}
+
+// The common normal of two smooth surfaces, from one query point x on Q projected
+// onto S. x sits at an unknown tangential offset t from where the surfaces touch:
+// the foot's normal n_s has turned by K_s t from the common normal n0, Q's own
+// normal at x by K_q t the other way (K the shape operators, turning angles). The
+// angle from n_s to -n_q is therefore (K_s + K_q) t, which gives t, and n0 is n_s
+// turned back by K_s t toward -n_q. A flat wall's point on a fingertip takes the
+// wall's normal, a fingertip's point on the wall the wall's, two equal spheres the
+// centre line. Directions in which the pair is flat (or concave) keep n_s's tilt.
+// In S's frame (R turns Q's frame into it); n_s and n_q unit; ps, pq the leaves'
+// patches (each in its body's frame).
+Vec3 CommonNormal(const Vec3& n_s, const MlsPatch& ps, const Vec3& n_q, const MlsPatch& pq, const Mat3& R) {
+  const Vec3 w = -n_q - (-n_q).dot(n_s) * n_s;  // toward -n_q, tangent to S
+  const double sin_phi = w.norm();
+  const double phi = std::atan2(sin_phi, -n_q.dot(n_s));
+  if (!(sin_phi > 1e-12) || !(phi < kMaxPairAngle)) return n_s;
+  const Vec3 b1 = w / sin_phi;
+  const Vec3 b2 = n_s.cross(b1);
+  const Eigen::Matrix2d ks = ShapeAlong(ps, b1, b2);
+  const Eigen::Matrix2d m = ks + ShapeAlong(pq, R.transpose() * b1, R.transpose() * b2);
+  const Eigen::Vector2d turn = -ks * OffsetFrom(m, phi);
+  const double angle = turn.norm();
+  if (!(angle > 1e-12)) return n_s;
+  return std::cos(angle) * n_s + (std::sin(angle) / angle) * (turn.x() * b1 + turn.y() * b2);
+}
+
+// The contact normal of query leaf lq (Q) projected onto S near leaf ls, in S's
+// frame: the common normal from both leaves' patches, or the foot's normal when
+// either leaf has no patch or the foot's is flat (a face: its normal is the
+// common normal whatever Q's shape).
+Vec3 PairNormal(const SphereTree& tq, int lq, const Pose& q_to_s, const SphereTree& ts, int ls,
+                const MlsProjection& proj) {
+  const MlsPatch* pq = tq.leaf_patch(lq);
+  const MlsPatch* ps = ts.leaf_patch(ls);
+  if (!pq || !ps) return proj.normal;
+  const double* c = ps->c;
+  if (!(std::abs(c[3]) + std::abs(c[4]) + std::abs(c[5]) > 0.5 * kFlatCurvature * ps->h)) return proj.normal;
+  const Vec3 n_q = q_to_s.R * pq->NormalBelow(tq.control_point(lq));
+  const Vec3 n = CommonNormal(proj.normal, *ps, n_q, *pq, q_to_s.R);
+  return n.allFinite() ? n : proj.normal;
+}
+
 // projects the control points of the query body onto the surface body's MLS surface
 // for every query leaf that has a coupled leaf in best[]; consumes `touched`
 void ProjectSide(int id_q, const SphereTree& tq, const Pose& q_to_s, int id_s, const CollisionShape& surf,
@@ -515,11 +589,11 @@ void ProjectSide(int id_q, const SphereTree& tq, const Pose& q_to_s, int id_s, c
       ++stats->rejected;
       continue;
     }
-    // a projection outside the coupled node's border is a curvature artefact
-    const TreeNode& node = ts.node(ts.leaf_node(coupled));
-    const double reach = node.rest_radius + ts.border();
-    if ((proj.point - node.center).squaredNorm() > reach * reach) {
+    // a projection outside the coupled node's border is a curvature artefact (the
+    // node coupled by the traversal, not the leaf the projection ended in)
+    if (params.curvature_rejection && !WithinCoupledBorder(ts, ls, proj.point)) {
       ++stats->rejected;
+      ++stats->out_of_border;
       continue;
     }
     const double gap = (x - proj.point).dot(proj.normal);  // eq. 4: negative inside
@@ -546,7 +620,7 @@ void ProjectSide(int id_q, const SphereTree& tq, const Pose& q_to_s, int id_s, c
     c.surface_leaf = coupled;
     c.anchor[0] = tq.control_point(lq);
     c.anchor[1] = proj.point;
-    c.normal = pose_s.Rotate(proj.normal);
+    c.normal = pose_s.Rotate(params.common_normal ? PairNormal(tq, lq, q_to_s, ts, coupled, proj) : proj.normal);
     c.gap = gap;
     c.key = ContactKey(id_q, id_s, lq);
     if (out->Push(c)) ++stats->contacts;
@@ -634,12 +708,19 @@ bool ProjectOntoSurfaceFrom(const Vec3* positions, const Vec3* normals, const in
   return ok;
 }
 
+bool WithinCoupledBorder(const SphereTree& ts, int coupled_leaf, const Vec3& foot) {
+  const TreeNode& node = ts.node(ts.leaf_node(coupled_leaf));
+  const double reach = node.rest_radius + ts.border();
+  return (foot - node.center).squaredNorm() <= reach * reach;
+}
+
 void CollisionStats::Add(const CollisionStats& o) {
   node_pairs += o.node_pairs;
   leaf_pairs += o.leaf_pairs;
   projections += o.projections;
   fits += o.fits;
   rejected += o.rejected;
+  out_of_border += o.out_of_border;
   culled += o.culled;
   contacts += o.contacts;
   dropped += o.dropped;

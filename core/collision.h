@@ -37,6 +37,15 @@ struct CollisionShape {
 struct CollisionParams {
   double contact_threshold = 2e-4;  ///< delta_eps (m): pairs with a larger gap are not contacts
   double max_bandwidth_factor = 1.0;  ///< projection bandwidth = clamp(centre distance, h, factor * h)
+  /// true: a contact's normal is the two surfaces' common normal, from the foot's
+  /// normal, the query point's own and both surfaces' curvatures (CommonNormal in
+  /// collision.cpp); false: the foot's normal (tilted where the query point is off
+  /// the touching point: a flat wall's points on a fingertip act as ledges).
+  bool common_normal = true;
+  /// true: a projection whose foot leaves the coupled leaf's radius plus r_eps
+  /// border is rejected (the paper's curvature rejection); false: kept (for
+  /// measuring what the rule does).
+  bool curvature_rejection = true;
   /// Leaf-pair cache (PairCache): the margin, as a fraction of the two trees' mean
   /// leaf radii, by which the cached traversal reaches beyond the contact threshold.
   /// The cache serves the following steps while the trees' relative motion plus
@@ -76,7 +85,8 @@ struct CollisionStats {
   int leaf_pairs = 0;     ///< overlapping leaf pairs found
   int projections = 0;    ///< MLS projections done
   int fits = 0;           ///< MLS fits (projection iterations) done
-  int rejected = 0;       ///< projections rejected (left the border or failed)
+  int rejected = 0;       ///< projections rejected (left the border, failed, or a sideways deep foot)
+  int out_of_border = 0;  ///< of rejected: feet outside the coupled leaf's radius + r_eps (curvature rejection)
   int culled = 0;         ///< leaves skipped: above every overlapping leaf's slab by more than delta_eps
   int contacts = 0;       ///< contacts added
   int dropped = 0;        ///< contacts lost because the buffer was full
@@ -194,6 +204,11 @@ bool ProjectOntoSurface(const Vec3* positions, const Vec3* normals, const int* i
 /// The same, with the fits starting at `start` (near x's foot on the surface).
 bool ProjectOntoSurfaceFrom(const Vec3* positions, const Vec3* normals, const int* idx, int count, const Vec3& x,
                             const Vec3& start, const MlsParams& mls, MlsProjection* out);
+
+/// The paper's curvature rejection: true when a projection's foot (surface body's
+/// rest frame) lies within the radius plus r_eps border of the leaf the traversal
+/// coupled to the query, wherever the projection went on to end.
+bool WithinCoupledBorder(const SphereTree& ts, int coupled_leaf, const Vec3& foot);
 
 /// Appends the contacts between bodies a and b (ids id_a, id_b) to `out`.
 /// With `cache` (two trees; ignored for a plane), the traversal is served from it

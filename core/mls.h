@@ -81,6 +81,14 @@ struct MlsPatch {
     const double gu = c[1] + 2.0 * c[3] * u + c[4] * v, gv = c[2] + c[4] * u + 2.0 * c[5] * v;
     return (normal - gu * t1 - gv * t2).normalized();
   }
+  /// The patch's shape operator at its origin (rest frame, 1/m): K v is how fast
+  /// the outward normal turns per metre moved along the tangent v, positive where
+  /// the surface bends away from its normal (convex). A sphere of radius R gives
+  /// (I - n n^T) / R, a flat face 0.
+  Mat3 Shape() const {
+    return -(2.0 * c[3] * t1 * t1.transpose() + c[4] * (t1 * t2.transpose() + t2 * t1.transpose()) +
+             2.0 * c[5] * t2 * t2.transpose()) / h;
+  }
 };
 
 /// Fits the patch at p from the points idx[0..count) (the plane alone when the

@@ -62,7 +62,6 @@ SphereTree::EBuildError SphereTree::Build(const PointCloud& cloud, const MlsPara
   for (int i = 0; i < n; ++i)
     if (!cloud.positions[i].allFinite() || !cloud.normals[i].allFinite()) return EBuildError::NotFinite;
 
-  lod_samples_ = std::max(1, params.lod_samples);
   const double spacing = GuessSpacing(cloud);
   PointGrid grid;
   grid.Build(cloud.positions, 2.0 * spacing);
@@ -76,7 +75,6 @@ SphereTree::EBuildError SphereTree::Build(const PointCloud& cloud, const MlsPara
   point_order_.resize(n);
   for (int i = 0; i < n; ++i) point_order_[i] = i;
   nodes_.reserve(2 * static_cast<size_t>(params.leaf_count));
-  lod_points_.clear();
   max_depth_ = 0;
   BuildNode(cloud, 0, n, params.leaf_count, -1, 0);
 
@@ -243,12 +241,6 @@ int SphereTree::BuildNode(const PointCloud& cloud, int first, int count, int lea
   }
   nodes_[index].center = c;
   nodes_[index].rest_radius = nodes_[index].radius = r + cover_margin_;
-
-  // level-of-detail sample: evenly strided points of the range
-  nodes_[index].lod_first = static_cast<int>(lod_points_.size());
-  const int lod = std::min(count, lod_samples_);
-  for (int s = 0; s < lod; ++s) lod_points_.push_back(point_order_[first + (s * count) / lod]);
-  nodes_[index].lod_count = lod;
 
   if (leaves <= 1) {
     nodes_[index].leaf = static_cast<int>(leaf_node_.size());

@@ -2,8 +2,9 @@
 // once in the body's rest frame.
 //
 // - Every node bounds the points below it (plus a coverage margin, so that the
-//   continuous MLS surface between samples is enclosed too) and keeps a small
-//   level-of-detail sample of them.
+//   continuous MLS surface between samples is enclosed too). The paper's
+//   per-node level-of-detail samples are not kept: collision detection never
+//   reads them (docs/collision.md).
 // - There are exactly `leaf_count` leaves. A leaf's centre lies on the MLS
 //   surface; the leaf centres are the body's control points (paper 3.5.1).
 // - Each leaf keeps its neighbourhood: every point within its radius plus the
@@ -33,7 +34,6 @@ struct SphereTreeParams {
   int leaf_count = 1;         ///< number of leaves = control points
   double border = 0.0;        ///< r_eps (m): neighbourhood margin around each leaf sphere
   double cover_margin = 0.0;  ///< (m) added to every radius; 0 = automatic (largest nearest-neighbour gap)
-  int lod_samples = 8;        ///< level-of-detail samples kept per node
 };
 
 struct TreeNode {
@@ -45,7 +45,6 @@ struct TreeNode {
   int depth = 0;
   int leaf = -1;               ///< leaf id (control point index) or -1
   int first = 0, count = 0;    ///< points below this node: point_order()[first .. first+count)
-  int lod_first = 0, lod_count = 0;  ///< level-of-detail sample: lod_points()[lod_first ..)
 
   bool IsLeaf() const { return child[0] < 0; }
 };
@@ -88,7 +87,6 @@ class SphereTree {
   const std::vector<Vec3>& control_points() const { return control_points_; }
   /// Permutation of point indices; each node covers a contiguous range of it.
   const std::vector<int>& point_order() const { return point_order_; }
-  const std::vector<int>& lod_points() const { return lod_points_; }
   /// Leaf owning each point.
   const std::vector<int>& point_leaf() const { return point_leaf_; }
   /// Points within the leaf's radius + border (indices into the cloud).
@@ -148,7 +146,6 @@ class SphereTree {
   std::vector<Vec3> control_points_;
   std::vector<int> point_order_;
   std::vector<int> point_leaf_;
-  std::vector<int> lod_points_;
   std::vector<int> nbr_start_, nbr_items_;
   std::vector<Vec3> leaf_normal_;
   std::vector<double> leaf_height_;
@@ -169,7 +166,6 @@ class SphereTree {
   double border_ = 0.0;
   double cover_margin_ = 0.0;
   int max_depth_ = 0;
-  int lod_samples_ = 8;
 };
 
 }  // namespace gs

@@ -37,7 +37,6 @@ void CheckStructure(const BodyGeometry& g, int leaves) {
     if (!n.IsLeaf()) {
       EXPECT_EQ(t.node(n.child[0]).count + t.node(n.child[1]).count, n.count);
       EXPECT_EQ(t.node(n.child[0]).parent, &n - t.nodes().data());
-      EXPECT_GT(n.lod_count, 0);
     }
   }
   for (size_t i = 0; i < seen.size(); ++i) ASSERT_EQ(seen[i], 1) << "point " << i;
