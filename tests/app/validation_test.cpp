@@ -157,6 +157,8 @@ TEST(Validation, EveryMassTimesKLeavesTheStackUnchanged) {
     const ValidationResult* r = Find(v, name);
     ASSERT_NE(r, nullptr) << name;
     EXPECT_TRUE(r->pass) << r->detail;
+  }
+}
 
 TEST(Validation, SlideAlongAFlatFaceGivesMuWithoutRipple) {
 #ifdef GRASPSIM_SANITIZED
@@ -177,4 +179,4 @@ TEST(Validation, SlideAlongAFlatFaceGivesMuWithoutRipple) {
 }
 
 }  // namespace
-}  // namespace gs
+}  // namespace gs::app
