@@ -10,6 +10,7 @@
 #include <cmath>
 
 #include "core/contact_jacobian.h"
+#include "core/fc_newton.h"
 #include "core/local_solver.h"
 #include "core/world.h"
 
@@ -158,6 +159,66 @@ NsgsResult SolveNormalsOnly(WorldDelassus& op, Vec3* r, const NsgsParams& p) {
   return res;
 }
 
+// A step whose NSGS stopped short of the tolerance at its sweep cap (or stalled)
+// continues with the proximal semi-smooth Newton method (fc_newton.h) from the
+// NSGS forces, on the step's Delassus matrix assembled column by column: Gauss-
+// Seidel needs sweeps in proportion to the mass ratio of a heavy body on a light
+// one, Newton does not. Under the scaled measure the problem is solved in gap
+// units (r~ = w_c r_c: W's columns divided by w_c), whose Siconos error times
+// max(|q|, |r~|, |u|) is the scaled measure's numerator, so the tolerance given
+// to Newton is the step's, turned into that error. The result is kept only when
+// the step's own measure of it is lower; the accumulators then move by the
+// difference. Never with a time budget (a factorisation does not fit in a paced
+// step) nor past WorldParams::newton_max_contacts; this path allocates (the steady
+// state of a converging step never reaches it).
+void ContinueWithNewton(World& w, WorldDelassus& op, const NsgsParams& params, NsgsResult* res) {
+  const int n = op.NumContacts();
+  if (n == 0 || n > w.params.newton_max_contacts || params.time_budget_s > 0.0) return;
+  for (int c = 0; c < n; ++c) w.rows[c].r = w.solve_r[c];
+  FcProblem p;
+  Eigen::VectorXd r;
+  AssembleContactProblem(w, &p, &r);  // leaves the accumulators at the NSGS forces
+  const bool scaled = params.measure == EStopMeasure::Scaled;
+  Eigen::VectorXd d = Eigen::VectorXd::Ones(3 * n);
+  if (scaled)
+    for (int c = 0; c < n; ++c) {
+      const double wc = ForceToGap(w.rows[c].w_diag);
+      d.segment<3>(3 * c).setConstant(wc > 0.0 ? wc : 1.0);
+    }
+  p.W = p.W * d.cwiseInverse().asDiagonal();
+  r = r.cwiseProduct(d);
+  FcNewtonParams np;
+  np.max_iterations = w.params.newton_max_steps;
+  np.tolerance = params.tolerance;
+  if (scaled) {
+    const double den = std::max({p.q.norm(), r.norm(), (p.W * r + p.q).norm(), 1e-300});
+    np.tolerance = params.tolerance * GapScale(params) / den;
+  }
+  const FcNewtonResult nr = SolveFcNewton(p, np, &r);
+  r = r.cwiseQuotient(d);
+  std::vector<Vec3>& old = w.solve_r;
+  for (int c = 0; c < n; ++c) {
+    Vec3 x = ProjectOntoCone(Vec3(r.segment<3>(3 * c)), w.rows[c].mu);
+    if (!x.allFinite()) x = old[c];
+    op.ApplyDelta(c, x - old[c]);
+    w.rows[c].r = old[c];  // the NSGS forces, to go back to
+    old[c] = x;
+  }
+  const NsgsErrors e = ExactErrors(op, w.solve_r.data(), params);
+  w.profile.newton_steps = nr.iterations;
+  if (e.stop < res->error) {
+    res->error = e.stop;
+    res->siconos_error = e.siconos;
+    res->converged = e.stop <= params.tolerance;
+    res->error_bounded = res->error_estimated = false;
+    return;
+  }
+  for (int c = 0; c < n; ++c) {
+    op.ApplyDelta(c, w.rows[c].r - w.solve_r[c]);
+    w.solve_r[c] = w.rows[c].r;
+  }
+}
+
 }  // namespace
 
 // what gravity moves a free body in one step
@@ -218,8 +279,11 @@ void SolveContacts(World& w) {
       const double spent = std::chrono::duration<double>(t0 - w.step_started()).count();
       params.time_budget_s = std::max(1e-9, w.params.step_time_budget_s - spent - w.last_constrained_motion_s());
     }
-    const NsgsResult res = frictionless ? SolveNormalsOnly(op, w.solve_r.data(), params)
+    NsgsResult res = frictionless ? SolveNormalsOnly(op, w.solve_r.data(), params)
                                         : SolveNsgs(op, w.solve_r.data(), params, w.gs_scratch);
+    w.profile.newton_steps = 0;
+    if (!res.converged && !res.budget_stopped && w.params.newton_max_steps > 0)
+      ContinueWithNewton(w, op, params, &res);
     w.profile.iterations = res.iterations;
     w.profile.residual = res.error;
     w.profile.residual_siconos = res.siconos_error;

@@ -269,6 +269,12 @@ struct WorldParams {
   /// unsolved). The sweep after a skipped one starts from older forces, and on the
   /// paper's grasp reached errors up to 0.13 where one-sweep steps stay below 1e-3.
   bool budget_may_skip_solve = false;
+  /// A step whose Gauss-Seidel ends unconverged continues with the semi-smooth
+  /// Newton method on its assembled Delassus matrix (core/solver.cpp
+  /// ContinueWithNewton), at most this many Newton steps (0: never), when it has
+  /// no time budget and at most newton_max_contacts contacts.
+  int newton_max_steps = 50;
+  int newton_max_contacts = 2000;
 };
 
 /// Work done by the last step, counted where it is done: what a scene does not
@@ -302,6 +308,7 @@ struct StepProfile {
   double fill_w_rigid = 0, fill_w_deform = 0, solve = 0, constrained_motion = 0, total = 0;
   int contacts = 0;
   int iterations = 0;
+  int newton_steps = 0;  ///< Newton steps after an unconverged Gauss-Seidel (WorldParams::newton_max_steps)
   /// the solver's stopping measure (params.solver.measure: the scaled one by default)
   /// of the step's forces, an upper bound of it (residual_bounded) or its estimate
   /// (residual_estimated); converged means residual <= params.solver.tolerance
