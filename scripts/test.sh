@@ -37,8 +37,10 @@ for preset in $presets; do
   elif [ "$preset" = asan ]; then
     scripts/build.sh asan
     # every unit and integration test; the four sweeps that replay whole benchmark
-    # matrices (minutes each under ASan) run in the release build only
-    run_ctest build/asan --preset asan -j "$jobs" -E '^(Stress\.QuickMatrix|Tradeoff\.QuickSweeps|BenchScaling\.QuickSeriesAndFittedSlopes|BenchSkip\.QuickRunShowsEachSkip)$'
+    # matrices and the validations of physics against analytic answers (seconds to
+    # minutes of simulation each in release, several times that under ASan) run in
+    # the release build only
+    run_ctest build/asan --preset asan -j "$jobs" -E '^(Stress\.QuickMatrix|Tradeoff\.QuickSweeps|BenchScaling\.QuickSeriesAndFittedSlopes|BenchSkip\.QuickRunShowsEachSkip|Validation\.(Incline|Hertz|Stacks|EveryMass|Pinch|Slide|PaperGrasp).*)$'
   else
     scripts/build.sh "$preset"
     run_ctest "build/$preset" --preset "$preset" -j "$jobs"
