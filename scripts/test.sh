@@ -40,7 +40,7 @@ for preset in $presets; do
     # matrices and the validations of physics against analytic answers (seconds to
     # minutes of simulation each in release, several times that under ASan) run in
     # the release build only
-    run_ctest build/asan --preset asan -j "$jobs" -E '^(Stress\.QuickMatrix|Tradeoff\.QuickSweeps|BenchScaling\.QuickSeriesAndFittedSlopes|BenchSkip\.QuickRunShowsEachSkip|Validation\.(Incline|Hertz|Stacks|EveryMass|Pinch|Slide|PaperGrasp).*)$'
+    run_ctest build/asan --preset asan -j "$jobs" -E '^(Stress\.QuickMatrix|Tradeoff\.QuickSweeps|BenchScaling\.QuickSeriesAndFittedSlopes|BenchSkip\.QuickRunShowsEachSkip|Validation\.(Incline|Hertz|Stacks|EveryMass|Pinch|Slide|PaperGrasp).*|Scale\.(EveryMassTimesK|HeavyOnLightStacks).*)$'
   else
     scripts/build.sh "$preset"
     run_ctest "build/$preset" --preset "$preset" -j "$jobs"

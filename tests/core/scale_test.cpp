@@ -54,9 +54,10 @@ struct Trace {
   double force = 0.0;     // normal force sum of the last step
 };
 
-Trace RunStack(double ratio, double scale, EStopMeasure measure, int steps) {
+Trace RunStack(double ratio, double scale, EStopMeasure measure, int steps, int newton_steps = 50) {
   Stack s;
   BuildStack(&s, ratio, scale, measure);
+  s.w.params.newton_max_steps = newton_steps;
   Trace t;
   for (int i = 0; i < steps; ++i) {
     s.w.Step();
@@ -94,21 +95,26 @@ int TotalSweeps(const Trace& t) {
 // a contact flips state in the landing), and about the same sweeps (these statically
 // indeterminate contacts' forces are not unique, so a last-bit difference can move a
 // step's stop by a sweep). Mass ratio 1: the sweeps converge below the cap.
+// The bit-identical check runs Gauss-Seidel alone (newton_max_steps 0): the Newton
+// continuation of unconverged steps (core/solver.cpp) is scale-invariant only to
+// round-off (measured: 5e-11 m over the run at x8 and x1024), so the whole step is
+// checked with the other factors below.
 TEST(Scale, EveryMassTimesKGivesTheSameTrajectoryAndSweeps) {
   const int steps = 400;  // the landing and 0.35 s at rest
-  const Trace base = RunStack(1.0, 1.0, EStopMeasure::Scaled, steps);
+  const Trace base = RunStack(1.0, 1.0, EStopMeasure::Scaled, steps, 0);
   ASSERT_LT(TotalSweeps(base), 100 * steps / 2);  // not every step at the cap
   for (const double k : {8.0, 1024.0}) {
-    const Trace t = RunStack(1.0, k, EStopMeasure::Scaled, steps);
+    const Trace t = RunStack(1.0, k, EStopMeasure::Scaled, steps, 0);
     EXPECT_EQ(t.force, k * base.force) << k;
     EXPECT_EQ(MaxGap(base, t), 0.0) << k;
     EXPECT_EQ(Mismatches(base, t), 0) << k;
   }
-  for (const double k : {10.0, 1000.0}) {
+  const Trace whole = RunStack(1.0, 1.0, EStopMeasure::Scaled, steps);
+  for (const double k : {10.0, 1000.0, 8.0, 1024.0}) {
     const Trace t = RunStack(1.0, k, EStopMeasure::Scaled, steps);
-    EXPECT_NEAR(t.force, k * base.force, 1e-4 * k * base.force) << k;
-    EXPECT_LT(MaxGap(base, t), 1e-8) << k;
-    EXPECT_NEAR(TotalSweeps(t), TotalSweeps(base), 0.05 * TotalSweeps(base)) << k;
+    EXPECT_NEAR(t.force, k * whole.force, 1e-4 * k * whole.force) << k;
+    EXPECT_LT(MaxGap(whole, t), 1e-8) << k;
+    EXPECT_NEAR(TotalSweeps(t), TotalSweeps(whole), 0.05 * TotalSweeps(whole)) << k;
   }
 }
 
