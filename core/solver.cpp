@@ -32,9 +32,13 @@ class WorldDelassus {
 
   // Each side adds to a frame-coordinate term (finger rows) and a world-coordinate
   // term (free bodies' J dq, deformable sides' R d), turned into the frame once.
-  Vec3 Velocity(int c, const Vec3* /*r*/) const {
+  Vec3 Velocity(int c, const Vec3* /*r*/) const { return VelocityFrom(c, w_.rows[c].q); }
+  /// W r alone, without the free velocity q: the columns of an assembled W, exact
+  /// (q + W e - q would round W e to q's last bit, and break scale invariance)
+  Vec3 Response(int c) const { return VelocityFrom(c, Vec3::Zero()); }
+  Vec3 VelocityFrom(int c, const Vec3& q) const {
     const ContactRow& row = w_.rows[c];
-    Vec3 u = row.q, v = Vec3::Zero();
+    Vec3 u = q, v = Vec3::Zero();
     for (const ContactSide& s : row.side) {
       if (s.articulation >= 0) AddSideVelocity(w_, s, &u, &v);
       if (s.count > 0) v += s.sign * (w_.bodies[s.body].pose.R * Interpolated(s));
@@ -344,7 +348,7 @@ void AssembleContactProblem(World& w, FcProblem* p, Eigen::VectorXd* r) {
       const Vec3 e = Vec3::Unit(k);
       op.ApplyDelta(c, e);
       for (int d : touched) {
-        const Vec3 col = op.Velocity(d, nullptr) - w.rows[d].q;
+        const Vec3 col = op.Response(d);
         for (int i = 0; i < 3; ++i)
           if (col[i] != 0.0) trip.emplace_back(3 * d + i, 3 * c + k, col[i]);
       }
