@@ -562,9 +562,7 @@ PairGeometry PairNormal(const SphereTree& tq, int lq, const Pose& q_to_s, const 
   const MlsPatch* ps = ts.leaf_patch(ls);
   if (!pq || !ps) return foot;
   const double* c = ps->c;
-  const double* cq = pq->c;
-  const auto flat = [](const double* k, double h) { return !(std::abs(k[3]) + std::abs(k[4]) + std::abs(k[5]) > 0.5 * kFlatCurvature * h); };
-  if (flat(c, ps->h) && flat(cq, pq->h)) return foot;
+  if (!(std::abs(c[3]) + std::abs(c[4]) + std::abs(c[5]) > 0.5 * kFlatCurvature * ps->h)) return foot;
   const Vec3 n_q = q_to_s.R * pq->NormalBelow(tq.control_point(lq));
   const PairGeometry g = CommonNormal(proj.normal, *ps, n_q, *pq, q_to_s.R);
   return g.normal.allFinite() && g.shift.allFinite() ? g : foot;
