@@ -480,13 +480,6 @@ bool ProjectNear(const SphereTree& ts, const Vec3* pos, const Vec3* nrm, const V
   return false;
 }
 
-// A contact's normal and where it acts: the shift (S's frame) from the projection's
-// foot to where the two surfaces touch.
-struct PairGeometry {
-  Vec3 normal;
-  Vec3 shift;
-};
-
 // Below this curvature (1/m: radius 1 m) a direction is taken as flat in CommonNormal.
 constexpr double kFlatCurvature = 1.0;
 // normals more than 60 degrees apart are no pair of touching smooth surfaces
@@ -527,45 +520,37 @@ Eigen::Vector2d OffsetFrom(const Eigen::Matrix2d& m, double phi) {
 // turned back by K_s t toward -n_q. A flat wall's point on a fingertip takes the
 // wall's normal, a fingertip's point on the wall the wall's, two equal spheres the
 // centre line. Directions in which the pair is flat (or concave) keep n_s's tilt.
-// The force acts where the surfaces touch, t from the foot: along n0 but at x, it
-// would turn both bodies about the touching point (a rigid fingertip's point 1 mm
-// off a cylinder's touching line spun the cylinder, and friction spent on holding
-// the spin let it drop at 1.005 mu*). In S's frame (R turns Q's frame into it);
-// n_s and n_q unit; ps, pq the leaves' patches (each in its body's frame).
-PairGeometry CommonNormal(const Vec3& n_s, const MlsPatch& ps, const Vec3& n_q, const MlsPatch& pq, const Mat3& R) {
-  const PairGeometry foot{n_s, Vec3::Zero()};
+// In S's frame (R turns Q's frame into it); n_s and n_q unit; ps, pq the leaves'
+// patches (each in its body's frame).
+Vec3 CommonNormal(const Vec3& n_s, const MlsPatch& ps, const Vec3& n_q, const MlsPatch& pq, const Mat3& R) {
   const Vec3 w = -n_q - (-n_q).dot(n_s) * n_s;  // toward -n_q, tangent to S
   const double sin_phi = w.norm();
   const double phi = std::atan2(sin_phi, -n_q.dot(n_s));
-  if (!(sin_phi > 1e-12) || !(phi < kMaxPairAngle)) return foot;
+  if (!(sin_phi > 1e-12) || !(phi < kMaxPairAngle)) return n_s;
   const Vec3 b1 = w / sin_phi;
   const Vec3 b2 = n_s.cross(b1);
   const Eigen::Matrix2d ks = ShapeAlong(ps, b1, b2);
   const Eigen::Matrix2d m = ks + ShapeAlong(pq, R.transpose() * b1, R.transpose() * b2);
-  const Eigen::Vector2d offset = OffsetFrom(m, phi);  // from the touching point to the foot
-  const Eigen::Vector2d turn = -ks * offset;
+  const Eigen::Vector2d turn = -ks * OffsetFrom(m, phi);
   const double angle = turn.norm();
-  PairGeometry g{n_s, -(offset.x() * b1 + offset.y() * b2)};
-  if (angle > 1e-12) g.normal = std::cos(angle) * n_s + (std::sin(angle) / angle) * (turn.x() * b1 + turn.y() * b2);
-  return g;
+  if (!(angle > 1e-12)) return n_s;
+  return std::cos(angle) * n_s + (std::sin(angle) / angle) * (turn.x() * b1 + turn.y() * b2);
 }
 
-// The contact normal of query leaf lq (Q) projected onto S near leaf ls, and the
-// shift from the foot to where the surfaces touch, in S's frame: the common normal
-// from both leaves' patches, or the foot's normal (no shift) when either leaf has
-// no patch or the foot's is flat (a face: its normal is the common normal whatever
-// Q's shape, and a force along it acts on the same line anywhere on the face).
-PairGeometry PairNormal(const SphereTree& tq, int lq, const Pose& q_to_s, const SphereTree& ts, int ls,
-                        const MlsProjection& proj) {
-  const PairGeometry foot{proj.normal, Vec3::Zero()};
+// The contact normal of query leaf lq (Q) projected onto S near leaf ls, in S's
+// frame: the common normal from both leaves' patches, or the foot's normal when
+// either leaf has no patch or the foot's is flat (a face: its normal is the
+// common normal whatever Q's shape).
+Vec3 PairNormal(const SphereTree& tq, int lq, const Pose& q_to_s, const SphereTree& ts, int ls,
+                const MlsProjection& proj) {
   const MlsPatch* pq = tq.leaf_patch(lq);
   const MlsPatch* ps = ts.leaf_patch(ls);
-  if (!pq || !ps) return foot;
+  if (!pq || !ps) return proj.normal;
   const double* c = ps->c;
-  if (!(std::abs(c[3]) + std::abs(c[4]) + std::abs(c[5]) > 0.5 * kFlatCurvature * ps->h)) return foot;
+  if (!(std::abs(c[3]) + std::abs(c[4]) + std::abs(c[5]) > 0.5 * kFlatCurvature * ps->h)) return proj.normal;
   const Vec3 n_q = q_to_s.R * pq->NormalBelow(tq.control_point(lq));
-  const PairGeometry g = CommonNormal(proj.normal, *ps, n_q, *pq, q_to_s.R);
-  return g.normal.allFinite() && g.shift.allFinite() ? g : foot;
+  const Vec3 n = CommonNormal(proj.normal, *ps, n_q, *pq, q_to_s.R);
+  return n.allFinite() ? n : proj.normal;
 }
 
 // projects the control points of the query body onto the surface body's MLS surface
@@ -633,11 +618,9 @@ void ProjectSide(int id_q, const SphereTree& tq, const Pose& q_to_s, int id_s, c
     c.body[1] = id_s;
     c.leaf = lq;
     c.surface_leaf = coupled;
-    const PairGeometry pg = params.common_normal ? PairNormal(tq, lq, q_to_s, ts, coupled, proj)
-                                                 : PairGeometry{proj.normal, Vec3::Zero()};
-    c.anchor[0] = tq.control_point(lq) + q_to_s.R.transpose() * pg.shift;
-    c.anchor[1] = proj.point + pg.shift;
-    c.normal = pose_s.Rotate(pg.normal);
+    c.anchor[0] = tq.control_point(lq);
+    c.anchor[1] = proj.point;
+    c.normal = pose_s.Rotate(params.common_normal ? PairNormal(tq, lq, q_to_s, ts, coupled, proj) : proj.normal);
     c.gap = gap;
     c.key = ContactKey(id_q, id_s, lq);
     if (out->Push(c)) ++stats->contacts;
