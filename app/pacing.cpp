@@ -128,7 +128,7 @@ int ChooseCore(int preferred, std::string* note, const std::string& dir, int cpu
 
 PacingGrant LockMemory([[maybe_unused]] const PacingOptions& opt) {
   PacingGrant g;
-#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+#ifdef GRASPSIM_SANITIZED
   // a sanitizer's shadow memory is terabytes of reserved address space: not locked
   const bool lock = false;
 #else

@@ -480,6 +480,13 @@ bool ProjectNear(const SphereTree& ts, const Vec3* pos, const Vec3* nrm, const V
   return false;
 }
 
+// A contact's normal and where it acts: the shift (S's frame) from the projection's
+// foot to where the two surfaces touch.
+struct PairGeometry {
+  Vec3 normal;
+  Vec3 shift;
+};
+
 // Below this curvature (1/m: radius 1 m) a direction is taken as flat in CommonNormal.
 constexpr double kFlatCurvature = 1.0;
 // normals more than 60 degrees apart are no pair of touching smooth surfaces
@@ -520,43 +527,53 @@ Eigen::Vector2d OffsetFrom(const Eigen::Matrix2d& m, double phi) {
 // turned back by K_s t toward -n_q. A flat wall's point on a fingertip takes the
 // wall's normal, a fingertip's point on the wall the wall's, two equal spheres the
 // centre line. Directions in which the pair is flat (or concave) keep n_s's tilt.
-// In S's frame (R turns Q's frame into it); n_s and n_q unit; ps, pq the leaves'
-// patches (each in its body's frame).
-Vec3 CommonNormal(const Vec3& n_s, const MlsPatch& ps, const Vec3& n_q, const MlsPatch& pq, const Mat3& R) {
+// The force acts where the surfaces touch, t from the foot: along n0 but at x, it
+// would turn both bodies about the touching point (a rigid fingertip's point 1 mm
+// off a cylinder's touching line spun the cylinder, and friction spent on holding
+// the spin let it drop at 1.005 mu*). In S's frame (R turns Q's frame into it);
+// n_s and n_q unit; ps, pq the leaves' patches (each in its body's frame).
+PairGeometry CommonNormal(const Vec3& n_s, const MlsPatch& ps, const Vec3& n_q, const MlsPatch& pq, const Mat3& R) {
+  const PairGeometry foot{n_s, Vec3::Zero()};
   const Vec3 w = -n_q - (-n_q).dot(n_s) * n_s;  // toward -n_q, tangent to S
   const double sin_phi = w.norm();
   const double phi = std::atan2(sin_phi, -n_q.dot(n_s));
-  if (!(sin_phi > 1e-12) || !(phi < kMaxPairAngle)) return n_s;
+  if (!(sin_phi > 1e-12) || !(phi < kMaxPairAngle)) return foot;
   const Vec3 b1 = w / sin_phi;
   const Vec3 b2 = n_s.cross(b1);
   const Eigen::Matrix2d ks = ShapeAlong(ps, b1, b2);
   const Eigen::Matrix2d m = ks + ShapeAlong(pq, R.transpose() * b1, R.transpose() * b2);
-  const Eigen::Vector2d turn = -ks * OffsetFrom(m, phi);
+  const Eigen::Vector2d offset = OffsetFrom(m, phi);  // from the touching point to the foot
+  const Eigen::Vector2d turn = -ks * offset;
   const double angle = turn.norm();
-  if (!(angle > 1e-12)) return n_s;
-  return std::cos(angle) * n_s + (std::sin(angle) / angle) * (turn.x() * b1 + turn.y() * b2);
+  PairGeometry g{n_s, -(offset.x() * b1 + offset.y() * b2)};
+  if (angle > 1e-12) g.normal = std::cos(angle) * n_s + (std::sin(angle) / angle) * (turn.x() * b1 + turn.y() * b2);
+  return g;
 }
 
-// The contact normal of query leaf lq (Q) projected onto S near leaf ls, in S's
-// frame: the common normal from both leaves' patches, or the foot's normal when
-// either leaf has no patch or the foot's is flat (a face: its normal is the
-// common normal whatever Q's shape).
-Vec3 PairNormal(const SphereTree& tq, int lq, const Pose& q_to_s, const SphereTree& ts, int ls,
-                const MlsProjection& proj) {
+// The contact normal of query leaf lq (Q) projected onto S near leaf ls, and the
+// shift from the foot to where the surfaces touch, in S's frame: the common normal
+// from both leaves' patches, or the foot's normal (no shift) when either leaf has
+// no patch or the foot's is flat (a face: its normal is the common normal whatever
+// Q's shape, and a force along it acts on the same line anywhere on the face).
+PairGeometry PairNormal(const SphereTree& tq, int lq, const Pose& q_to_s, const SphereTree& ts, int ls,
+                        const MlsProjection& proj) {
+  const PairGeometry foot{proj.normal, Vec3::Zero()};
   const MlsPatch* pq = tq.leaf_patch(lq);
   const MlsPatch* ps = ts.leaf_patch(ls);
-  if (!pq || !ps) return proj.normal;
+  if (!pq || !ps) return foot;
   const double* c = ps->c;
-  if (!(std::abs(c[3]) + std::abs(c[4]) + std::abs(c[5]) > 0.5 * kFlatCurvature * ps->h)) return proj.normal;
+  const double* cq = pq->c;
+  const auto flat = [](const double* k, double h) { return !(std::abs(k[3]) + std::abs(k[4]) + std::abs(k[5]) > 0.5 * kFlatCurvature * h); };
+  if (flat(c, ps->h) && flat(cq, pq->h)) return foot;
   const Vec3 n_q = q_to_s.R * pq->NormalBelow(tq.control_point(lq));
-  const Vec3 n = CommonNormal(proj.normal, *ps, n_q, *pq, q_to_s.R);
-  return n.allFinite() ? n : proj.normal;
+  const PairGeometry g = CommonNormal(proj.normal, *ps, n_q, *pq, q_to_s.R);
+  return g.normal.allFinite() && g.shift.allFinite() ? g : foot;
 }
 
 // projects the control points of the query body onto the surface body's MLS surface
 // for every query leaf that has a coupled leaf in best[]; consumes `touched`
 void ProjectSide(int id_q, const SphereTree& tq, const Pose& q_to_s, int id_s, const CollisionShape& surf,
-                 const Pose& pose_s, const CollisionParams& params, bool emit, std::vector<int>* best,
+                 const Pose& pose_s, const CollisionParams& params, bool emit, bool rigid_pair, std::vector<int>* best,
                  std::vector<double>* best_d2, std::vector<double>* lift, std::vector<int>* touched,
                  CollisionScratch* s, ContactBuffer* out, CollisionStats* stats) {
   const SphereTree& ts = *surf.tree;
@@ -618,9 +635,14 @@ void ProjectSide(int id_q, const SphereTree& tq, const Pose& q_to_s, int id_s, c
     c.body[1] = id_s;
     c.leaf = lq;
     c.surface_leaf = coupled;
-    c.anchor[0] = tq.control_point(lq);
-    c.anchor[1] = proj.point;
-    c.normal = pose_s.Rotate(params.common_normal ? PairNormal(tq, lq, q_to_s, ts, coupled, proj) : proj.normal);
+    PairGeometry pg = params.common_normal ? PairNormal(tq, lq, q_to_s, ts, coupled, proj)
+                                           : PairGeometry{proj.normal, Vec3::Zero()};
+    // between deforming surfaces the sample points are where the surfaces press (they
+    // conform over a patch); and a deforming side's eq. 8 weights are taken at its anchor
+    if (!rigid_pair) pg.shift.setZero();
+    c.anchor[0] = tq.control_point(lq) + q_to_s.R.transpose() * pg.shift;
+    c.anchor[1] = proj.point + pg.shift;
+    c.normal = pose_s.Rotate(pg.normal);
     c.gap = gap;
     c.key = ContactKey(id_q, id_s, lq);
     if (out->Push(c)) ++stats->contacts;
@@ -848,9 +870,10 @@ void CollidePair(int id_a, const CollisionShape& a, const Pose& pose_a, int id_b
   // (a body that does not emit contacts only receives the other's control points)
   const bool emit_a = a.emits_contacts || !b.emits_contacts;
   const bool emit_b = b.emits_contacts || !a.emits_contacts;
-  ProjectSide(id_a, *a.tree, a_in_b, id_b, b, pose_b, params, emit_a, &s->best_a, &s->best_a_d2, &s->lift_a,
+  const bool rigid = !a.deforms && !b.deforms;
+  ProjectSide(id_a, *a.tree, a_in_b, id_b, b, pose_b, params, emit_a, rigid, &s->best_a, &s->best_a_d2, &s->lift_a,
               &s->touched_a, s, out, &local);
-  ProjectSide(id_b, *b.tree, b_in_a, id_a, a, pose_a, params, emit_b, &s->best_b, &s->best_b_d2, &s->lift_b,
+  ProjectSide(id_b, *b.tree, b_in_a, id_a, a, pose_a, params, emit_b, rigid, &s->best_b, &s->best_b_d2, &s->lift_b,
               &s->touched_b, s, out, &local);
   const auto t2 = Clock::now();
   local.traverse_s += Seconds(t0, t1);

@@ -32,6 +32,7 @@ struct CollisionShape {
   MlsParams mls;                      ///< projection onto this body's surface
   bool is_plane = false;              ///< analytic plane z = 0 of the body frame, normal +z
   bool emits_contacts = true;         ///< false: only the other body's control points are projected onto this one
+  bool deforms = false;               ///< the body's surface deforms (its contacts act at their sample points)
 };
 
 struct CollisionParams {

@@ -1,5 +1,6 @@
 #include "core/fc_newton.h"
 
+#include <Eigen/LU>
 #include <Eigen/SparseLU>
 #include <algorithm>
 #include <chrono>
@@ -23,11 +24,98 @@ namespace {
 
 using ColMatrix = Eigen::SparseMatrix<double, Eigen::ColMajor, int>;
 
+// W r and the factorisation of J = B W + D (B, D block diagonal, 3x3 per
+// contact): Eigen's sparse LU (pattern analysed once) when W is sparse (piles,
+// stacks), a dense partial-pivoting LU when W is mostly filled (the contacts of
+// one deformable body all couple, and a sparse LU of a full matrix is many times
+// slower than a dense one).
+class LinearAlgebra {
+ public:
+  explicit LinearAlgebra(const FcProblem& p) : contacts_(p.contacts) {
+    const double m = 3.0 * p.contacts;
+    dense_ = p.W.nonZeros() > kDenseFill * m * m;
+    if (dense_) {
+      Wd_ = Eigen::MatrixXd(p.W);
+      return;
+    }
+    W_ = p.W;
+    std::vector<Eigen::Triplet<double>> trip;  // every entry of every diagonal block: a fixed pattern
+    trip.reserve(9 * static_cast<size_t>(p.contacts));
+    for (int c = 0; c < p.contacts; ++c)
+      for (int j = 0; j < 3; ++j)
+        for (int i = 0; i < 3; ++i) trip.emplace_back(3 * c + i, 3 * c + j, 1.0);
+    B_.resize(3 * p.contacts, 3 * p.contacts);
+    B_.setFromTriplets(trip.begin(), trip.end());
+    D_ = B_;
+  }
+
+  bool Dense() const { return dense_; }
+
+  void Multiply(const Eigen::VectorXd& r, Eigen::VectorXd* u) const {
+    if (dense_) u->noalias() = Wd_ * r;
+    else u->noalias() = W_ * r;
+  }
+
+  /// Factorises B W + D; false when the factorisation fails.
+  bool Factorize(const std::vector<Mat3>& B, const std::vector<Mat3>& D) {
+    return dense_ ? FactorizeDense(B, D) : FactorizeSparse(B, D);
+  }
+
+  void Solve(const Eigen::VectorXd& rhs, Eigen::VectorXd* x) {
+    if (dense_) *x = dense_lu_.solve(rhs);
+    else *x = lu_.solve(rhs);
+  }
+
+ private:
+  static constexpr double kDenseFill = 0.1;
+
+  bool FactorizeDense(const std::vector<Mat3>& B, const std::vector<Mat3>& D) {
+    J_.resize(Wd_.rows(), Wd_.cols());
+    for (int c = 0; c < contacts_; ++c) {
+      J_.middleRows<3>(3 * c).noalias() = B[c] * Wd_.middleRows<3>(3 * c);
+      J_.block<3, 3>(3 * c, 3 * c) += D[c];
+    }
+    dense_lu_.compute(J_);
+    return true;  // a singular J gives non-finite steps, which the line search refuses
+  }
+
+  bool FactorizeSparse(const std::vector<Mat3>& B, const std::vector<Mat3>& D) {
+    for (int c = 0; c < contacts_; ++c) {
+      SetBlock(&B_, c, B[c]);
+      SetBlock(&D_, c, D[c]);
+    }
+    Js_ = B_ * W_;
+    Js_ += D_;
+    if (!analysed_) {
+      lu_.analyzePattern(Js_);
+      analysed_ = true;
+    }
+    lu_.factorize(Js_);
+    return lu_.info() == Eigen::Success;
+  }
+
+  static void SetBlock(ColMatrix* M, int c, const Mat3& blk) {
+    for (int j = 0; j < 3; ++j) {
+      // column 3c + j holds rows 3c, 3c + 1, 3c + 2 contiguously
+      double* v = M->valuePtr() + M->outerIndexPtr()[3 * c + j];
+      for (int i = 0; i < 3; ++i) v[i] = blk(i, j);
+    }
+  }
+
+  int contacts_;
+  bool dense_ = false, analysed_ = false;
+  Eigen::MatrixXd Wd_, J_;
+  Eigen::PartialPivLU<Eigen::MatrixXd> dense_lu_;
+  ColMatrix W_, B_, D_, Js_;
+  Eigen::SparseLU<ColMatrix, Eigen::COLAMDOrdering<int>> lu_;
+};
+
 // The Alart-Curnier function of a problem with W + sigma I and free velocity
-// q - sigma centre, its Jacobian J = A + B (W + sigma I) with A, B block diagonal.
+// q - sigma centre, and its Jacobian's blocks: J = A + B (W + sigma I).
 class AlartCurnier {
  public:
-  explicit AlartCurnier(const FcProblem& p) : p_(p), W_(p.W), rho_(p.contacts) {
+  explicit AlartCurnier(const FcProblem& p)
+      : p_(p), la_(p), rho_(p.contacts), B_(p.contacts), D_(p.contacts), u_(3 * p.contacts) {
     const int m = 3 * p.contacts;
     double trace = 0.0;
     for (int c = 0; c < p.contacts; ++c) {
@@ -37,47 +125,34 @@ class AlartCurnier {
       trace += p.W.coeff(3 * c, 3 * c) + p.W.coeff(3 * c + 1, 3 * c + 1) + p.W.coeff(3 * c + 2, 3 * c + 2);
     }
     mean_diag_ = trace / m;
-    // B and A + sigma B with all 9 entries of every diagonal block stored: a fixed pattern
-    std::vector<Eigen::Triplet<double>> trip;
-    trip.reserve(9 * static_cast<size_t>(p.contacts));
-    for (int c = 0; c < p.contacts; ++c)
-      for (int j = 0; j < 3; ++j)
-        for (int i = 0; i < 3; ++i) trip.emplace_back(3 * c + i, 3 * c + j, 1.0);
-    B_.resize(m, m);
-    B_.setFromTriplets(trip.begin(), trip.end());
-    D_ = B_;
-    u_.resize(m);
   }
 
   double MeanDiagonal() const { return mean_diag_; }
 
   /// u = W r + q (the original problem's velocities).
   const Eigen::VectorXd& Velocity(const Eigen::VectorXd& r) {
-    u_.noalias() = W_ * r;
+    la_.Multiply(r, &u_);
     u_ += p_.q;
     return u_;
   }
 
-  /// phi_sigma at r (proximal centre `centre`), and when `jacobian`, A and B.
+  /// phi_sigma at r (proximal centre `centre`), and when `jacobian`, its blocks.
   void Evaluate(const Eigen::VectorXd& r, const Eigen::VectorXd& centre, double sigma, Eigen::VectorXd* phi,
                 bool jacobian) {
     Velocity(r);
     u_ += sigma * (r - centre);
     for (int c = 0; c < p_.contacts; ++c) {
       Mat3 A, B;
-      const Vec3 f = Local(c, r.segment<3>(3 * c), u_.segment<3>(3 * c), jacobian ? &A : nullptr, &B);
-      phi->segment<3>(3 * c) = f;
+      phi->segment<3>(3 * c) = Local(c, r.segment<3>(3 * c), u_.segment<3>(3 * c), jacobian ? &A : nullptr, &B);
       if (!jacobian) continue;
-      SetBlock(&B_, c, B);
-      SetBlock(&D_, c, A + sigma * B);
+      B_[c] = B;
+      D_[c] = A + sigma * B;
     }
   }
 
-  /// J = A + sigma B + B W for the last Evaluate with a Jacobian.
-  void Jacobian(ColMatrix* J) const {
-    *J = B_ * W_;
-    *J += D_;
-  }
+  /// Factorises J for the last Evaluate with a Jacobian; false when that fails.
+  bool Factorize() { return la_.Factorize(B_, D_); }
+  void Solve(const Eigen::VectorXd& rhs, Eigen::VectorXd* x) { la_.Solve(rhs, x); }
 
  private:
   Vec3 Local(int c, const Vec3& r, const Vec3& u, Mat3* A, Mat3* B) const {
@@ -112,17 +187,10 @@ class AlartCurnier {
     return f;
   }
 
-  static void SetBlock(ColMatrix* M, int c, const Mat3& blk) {
-    for (int j = 0; j < 3; ++j) {
-      // column 3c + j holds rows 3c, 3c + 1, 3c + 2 contiguously
-      double* v = M->valuePtr() + M->outerIndexPtr()[3 * c + j];
-      for (int i = 0; i < 3; ++i) v[i] = blk(i, j);
-    }
-  }
-
   const FcProblem& p_;
-  ColMatrix W_, B_, D_;
+  LinearAlgebra la_;
   std::vector<double> rho_;
+  std::vector<Mat3> B_, D_;
   double mean_diag_ = 1.0;
   Eigen::VectorXd u_;
 };
@@ -150,9 +218,6 @@ FcNewtonResult SolveFcNewton(const FcProblem& p, const FcNewtonParams& params, E
   // forces beyond this are taken as divergence: far above any force that balances q
   const double force_limit = 1e12 * std::max(1.0, p.q.norm() / ac.MeanDiagonal());
   double sigma = params.sigma0 * ac.MeanDiagonal();
-  ColMatrix J;
-  Eigen::SparseLU<ColMatrix, Eigen::COLAMDOrdering<int>> lu;
-  bool analysed = false;
   res.stop = EFcStop::IterationCap;
   while (best_error > params.tolerance) {
     if (res.factorizations >= params.max_iterations) break;
@@ -163,18 +228,12 @@ FcNewtonResult SolveFcNewton(const FcProblem& p, const FcNewtonParams& params, E
     }
     centre = *r;
     ac.Evaluate(*r, centre, sigma, &phi, true);
-    ac.Jacobian(&J);
-    if (!analysed) {
-      lu.analyzePattern(J);
-      analysed = true;
-    }
-    lu.factorize(J);
     ++res.factorizations;
-    if (lu.info() != Eigen::Success) {
+    if (!ac.Factorize()) {
       sigma = std::min(sigma_max, 10.0 * sigma);
       continue;
     }
-    d = lu.solve(-phi);
+    ac.Solve(-phi, &d);
     const double norm0 = phi.norm();
     double t = 1.0;
     bool accepted = false;

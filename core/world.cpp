@@ -16,6 +16,7 @@ CollisionShape Body::Shape() const {
   }
   s.mls = geometry.mls;
   s.emits_contacts = emits_contacts;
+  s.deforms = deform.enabled();
   return s;
 }
 

@@ -119,14 +119,18 @@ void Compare(const Fixture& a, const Pose& pa, const Fixture& b, const Pose& pb,
       if (AnalyticDistance(s.shape_desc, x) > 0.0) continue;
       if (!BruteGap(s, x, &gap) || gap > -s.geom.spacing) continue;
       ++out->deep_points;
-      // covered: a contact point (either end, either direction) lies within the radius of p's leaf
+      // covered: a contact's query point (its control point, in either direction) or its
+      // foot lies within the radius of p's leaf (the contact's anchors are where the
+      // surfaces touch, which on curved bodies can be a leaf or more away)
       bool covered = false;
       const Vec3 pw = pq.Apply(q.geom.cloud.positions[i]);
       const double r = q.geom.tree.node(q.geom.tree.leaf_node(q.geom.tree.point_leaf()[i])).radius;
       for (const Contact& c : contacts.items) {
+        const Fixture& f0 = c.body[0] == 0 ? a : b;
         const Pose& p0 = c.body[0] == 0 ? pa : pb;
-        const Pose& p1 = c.body[1] == 0 ? pa : pb;
-        if ((p0.Apply(c.anchor[0]) - pw).norm() <= r || (p1.Apply(c.anchor[1]) - pw).norm() <= r) {
+        const Vec3 query = p0.Apply(f0.geom.tree.control_point(c.leaf));
+        const Vec3 foot = query - c.gap * c.normal;
+        if ((query - pw).norm() <= r || (foot - pw).norm() <= r) {
           covered = true;
           break;
         }
@@ -597,6 +601,72 @@ TEST(Collision, EqualSpheresContactsTakeTheCentreLine) {
   EXPECT_GT(worst[1], 3.0);
 }
 
+// The farthest (m) any contact point (either body's anchor, world) lies from the
+// line through `origin` along `dir`, over the contacts of a and b at these poses.
+double FarthestFromLine(const Fixture& a, const Pose& pa, const Fixture& b, const Pose& pb,
+                        const CollisionParams& params, const Vec3& origin, const Vec3& dir, int* contacts) {
+  CollisionScratch scratch;
+  scratch.Reserve(std::max(a.geom.tree.num_leaves(), b.geom.tree.num_leaves()), 100000);
+  ContactBuffer buf;
+  buf.Reserve(100000);
+  CollisionStats stats;
+  CollidePair(0, a.shape(), pa, 1, b.shape(), pb, params, &scratch, &buf, &stats);
+  double worst = 0.0;
+  for (const Contact& c : buf.items)
+    for (int s = 0; s < 2; ++s) {
+      const Vec3 x = (c.body[s] == 0 ? pa : pb).Apply(c.anchor[s]) - origin;
+      worst = std::max(worst, (x - x.dot(dir) * dir).norm());
+    }
+  *contacts += static_cast<int>(buf.items.size());
+  return worst;
+}
+
+// Curved surfaces pressed together touch at one point, and a force along their
+// common normal acts there whatever sample point found it: two equal spheres'
+// contacts lie on the centre line, a sphere's contacts on a face below its
+// centre. At the query point instead (no common normal: the foot), a contact up
+// to a leaf away from the touching point would turn both bodies about it (torque
+// = offset x force): a rigid fingertip 1 mm off a cylinder's touching line spun
+// the cylinder, and the friction spent on the spin let it drop at 1.005 mu*.
+TEST(Collision, CurvedContactsActWhereTheSurfacesTouch) {
+  auto fa = Make(Ball(0.01), 3000, 400, 7);
+  auto fb = Make(Ball(0.01), 3000, 400, 8);
+  auto fbox = Make(test::CubeShape(0.04), 12000, 1600, 12);
+  std::mt19937_64 rng(19);
+  std::uniform_real_distribution<double> u01(0.0, 1.0);
+  std::normal_distribution<double> nd;
+  double worst[2][2] = {{0.0, 0.0}, {0.0, 0.0}};  // [spheres, sphere on face][common normal, foot]
+  int contacts[2] = {0, 0};
+  for (int k = 0; k < 40; ++k) {
+    const Vec3 dir = Vec3(nd(rng), nd(rng), nd(rng)).normalized();
+    const Pose pa{RandomRotation(rng), Vec3::Zero()};
+    const Pose pb{RandomRotation(rng), dir * (0.02 - 1e-3 * u01(rng))};
+    const double depth = 1e-3 * u01(rng);
+    const Pose ps{RandomRotation(rng), Vec3(0.01 * (u01(rng) - 0.5), 0.01 * (u01(rng) - 0.5), 0.03 - depth)};
+    for (int mode = 0; mode < 2; ++mode) {
+      CollisionParams params;
+      params.common_normal = mode == 0;
+      int n[2] = {0, 0};
+      worst[0][mode] = std::max(worst[0][mode], FarthestFromLine(*fa, pa, *fb, pb, params, Vec3::Zero(), dir, &n[0]));
+      worst[1][mode] = std::max(worst[1][mode], FarthestFromLine(*fa, ps, *fbox, Pose{}, params, ps.t, Vec3::UnitZ(), &n[1]));
+      if (mode == 0) {
+        contacts[0] += n[0];
+        contacts[1] += n[1];
+      }
+    }
+  }
+  std::printf("equal spheres: %d contacts, farthest from the centre line %.3g mm (at the query point: %.3g mm)\n",
+              contacts[0], 1e3 * worst[0][0], 1e3 * worst[0][1]);
+  std::printf("sphere on face: %d contacts, farthest from below the centre %.3g mm (at the query point: %.3g mm)\n",
+              contacts[1], 1e3 * worst[1][0], 1e3 * worst[1][1]);
+  for (int i = 0; i < 2; ++i) {
+    EXPECT_GT(contacts[i], 400) << i;
+    // the shift is first order in the offset: at a 4.7 mm offset on a 10 mm sphere
+    // (0.47 rad) the tangent step R phi misses the arc's R sin(phi) by ~0.3 mm
+    EXPECT_LT(worst[i][0], 0.15 * worst[i][1]) << i;
+  }
+}
+
 }  // namespace
 }  // namespace gs
 
@@ -698,6 +768,33 @@ TEST(Collision, DISABLED_MeasureEq8Truncation) {
   }
   std::printf("eq. 8, 6 nearest vs all within 2.5 spacings: worst difference %.3g m/N, %.3g of the load point's\n",
               worst, worst_rel);
+}
+
+// A deforming surface conforms over its patch: each sample presses where it is,
+// and its eq. 8 weights are taken there. A pair with a deforming side keeps each
+// contact at its query point and that point's foot, with or without the common normal.
+TEST(Collision, DeformingPairsActAtTheirSamplePoints) {
+  auto fa = Make(Ball(0.01), 3000, 400, 7);
+  auto fbox = Make(test::CubeShape(0.04), 12000, 1600, 12);
+  const Pose ps{Pose::Translation(Vec3(0.002, -0.001, 0.0296))};
+  for (int deforming = 0; deforming < 2; ++deforming) {
+    CollisionShape sa = fa->shape(), sb = fbox->shape();
+    sa.deforms = deforming == 0;
+    sb.deforms = deforming == 1;
+    CollisionScratch scratch;
+    scratch.Reserve(std::max(fa->geom.tree.num_leaves(), fbox->geom.tree.num_leaves()), 100000);
+    ContactBuffer buf;
+    buf.Reserve(100000);
+    CollidePair(0, sa, ps, 1, sb, Pose{}, CollisionParams{}, &scratch, &buf, nullptr);
+    ASSERT_GT(buf.items.size(), 5u);
+    for (const Contact& c : buf.items) {
+      const Fixture& f0 = c.body[0] == 0 ? *fa : *fbox;
+      EXPECT_EQ(c.anchor[0], f0.geom.tree.control_point(c.leaf));
+      const Vec3 q = (c.body[0] == 0 ? ps : Pose{}).Apply(c.anchor[0]);
+      const Vec3 foot = (c.body[1] == 0 ? ps : Pose{}).Apply(c.anchor[1]);
+      EXPECT_LT((q - foot).norm(), std::abs(c.gap) + 1e-5);  // a shift would be up to a leaf (mm)
+    }
+  }
 }
 
 }  // namespace
