@@ -4,6 +4,8 @@
 #include <hdf5.h>
 
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 
@@ -21,9 +23,23 @@ std::string TempPath(const std::string& name) {
       .string();
 }
 
+bool InCi() {
+  const char* ci = std::getenv("CI");
+  return ci && *ci && std::strcmp(ci, "0") != 0 && std::strcmp(ci, "false") != 0;
+}
+
+// A build without FCLIB (libfclib-dev is optional) skips these tests and says so;
+// under CI=true, where scripts/setup.sh installs it, a missing FCLIB fails them.
+#define REQUIRE_FCLIB()                                                                             \
+  do {                                                                                              \
+    if (!FclibAvailable()) {                                                                        \
+      if (InCi()) FAIL() << "FCLIB is not built in (CI=true: libfclib-dev must be installed, scripts/setup.sh)"; \
+      GTEST_SKIP() << "built without FCLIB (libfclib-dev)";                                         \
+    }                                                                                               \
+  } while (0)
+
 TEST(Fclib, ReadsTheSampleProblems) {
-  // skipped only in builds without libfclib-dev (optional; scripts/setup.sh installs it)
-  if (!FclibAvailable()) GTEST_SKIP() << "built without FCLIB";
+  REQUIRE_FCLIB();
   FcProblem p;
   std::string error;
   ASSERT_TRUE(ReadFclibLocal(kCapsules, &p, &error)) << error;
@@ -34,8 +50,7 @@ TEST(Fclib, ReadsTheSampleProblems) {
 }
 
 TEST(Fclib, NsgsSolvesBothSamplesToTheSiconosTolerance) {
-  // skipped only in builds without libfclib-dev (optional; scripts/setup.sh installs it)
-  if (!FclibAvailable()) GTEST_SKIP() << "built without FCLIB";
+  REQUIRE_FCLIB();
   for (const std::string& f : {kPerioBox, kCapsules}) {
     FcProblem p;
     std::string error;
@@ -53,8 +68,7 @@ TEST(Fclib, NsgsSolvesBothSamplesToTheSiconosTolerance) {
 }
 
 TEST(Fclib, RoundTripsAnExportedStepProblem) {
-  // skipped only in builds without libfclib-dev (optional; scripts/setup.sh installs it)
-  if (!FclibAvailable()) GTEST_SKIP() << "built without FCLIB";
+  REQUIRE_FCLIB();
   // a deformable sphere resting on a plane: a real step problem with deformable coupling
   World w;
   w.params.solver.tolerance = 1e-9;
@@ -103,8 +117,7 @@ TEST(Fclib, RoundTripsAnExportedStepProblem) {
 }
 
 TEST(Fclib, BadFilesAreRefusedWithTheirName) {
-  // skipped only in builds without libfclib-dev (optional; scripts/setup.sh installs it)
-  if (!FclibAvailable()) GTEST_SKIP() << "built without FCLIB";
+  REQUIRE_FCLIB();
   FcProblem p;
   std::string error;
   const std::string missing = TempPath("missing.hdf5");
@@ -132,8 +145,7 @@ TEST(Fclib, BadFilesAreRefusedWithTheirName) {
 }
 
 TEST(Fclib, SolveCommandReportsAndRefuses) {
-  // skipped only in builds without libfclib-dev (optional; scripts/setup.sh installs it)
-  if (!FclibAvailable()) GTEST_SKIP() << "built without FCLIB";
+  REQUIRE_FCLIB();
   const std::string out = TempPath("solve.txt");
   std::string cmd = std::string(GRASPSIM_BINARY) + " solve " + kPerioBox + " --json --tolerance 1e-8 > " + out;
   ASSERT_EQ(std::system(cmd.c_str()), 0);
