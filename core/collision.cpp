@@ -553,18 +553,22 @@ PairGeometry CommonNormal(const Vec3& n_s, const MlsPatch& ps, const Vec3& n_q, 
 // The contact normal of query leaf lq (Q) projected onto S near leaf ls, and the
 // shift from the foot to where the surfaces touch, in S's frame: the common normal
 // from both leaves' patches, or the foot's normal (no shift) when either leaf has
-// no patch or the foot's is flat (a face: its normal is the common normal whatever
-// Q's shape, and a force along it acts on the same line anywhere on the face).
+// no patch, or when the foot's is flat (a face: its normal is the common normal
+// whatever Q's shape) and either the pair deforms or Q's is flat too (a rigid
+// curved Q on a face touches it at Q's lowest point: the shift goes there).
 PairGeometry PairNormal(const SphereTree& tq, int lq, const Pose& q_to_s, const SphereTree& ts, int ls,
-                        const MlsProjection& proj) {
+                        const MlsProjection& proj, bool rigid_pair) {
   const PairGeometry foot{proj.normal, Vec3::Zero()};
   const MlsPatch* pq = tq.leaf_patch(lq);
   const MlsPatch* ps = ts.leaf_patch(ls);
   if (!pq || !ps) return foot;
   const double* c = ps->c;
   const double* cq = pq->c;
-  const auto flat = [](const double* k, double h) { return !(std::abs(k[3]) + std::abs(k[4]) + std::abs(k[5]) > 0.5 * kFlatCurvature * h); };
-  if (flat(c, ps->h) && flat(cq, pq->h)) return foot;
+  const auto flat = [](const double* k, double h) {
+    return !(std::abs(k[3]) + std::abs(k[4]) + std::abs(k[5]) > 0.5 * kFlatCurvature * h);
+  };
+  // a flat foot keeps its normal: only a rigid pair's shift needs Q's curvature then
+  if (flat(c, ps->h) && (!rigid_pair || flat(cq, pq->h))) return foot;
   const Vec3 n_q = q_to_s.R * pq->NormalBelow(tq.control_point(lq));
   const PairGeometry g = CommonNormal(proj.normal, *ps, n_q, *pq, q_to_s.R);
   return g.normal.allFinite() && g.shift.allFinite() ? g : foot;
@@ -635,7 +639,7 @@ void ProjectSide(int id_q, const SphereTree& tq, const Pose& q_to_s, int id_s, c
     c.body[1] = id_s;
     c.leaf = lq;
     c.surface_leaf = coupled;
-    PairGeometry pg = params.common_normal ? PairNormal(tq, lq, q_to_s, ts, coupled, proj)
+    PairGeometry pg = params.common_normal ? PairNormal(tq, lq, q_to_s, ts, coupled, proj, rigid_pair)
                                            : PairGeometry{proj.normal, Vec3::Zero()};
     // between deforming surfaces the sample points are where the surfaces press (they
     // conform over a patch); and a deforming side's eq. 8 weights are taken at its anchor
