@@ -553,11 +553,10 @@ PairGeometry CommonNormal(const Vec3& n_s, const MlsPatch& ps, const Vec3& n_q, 
 // The contact normal of query leaf lq (Q) projected onto S near leaf ls, and the
 // shift from the foot to where the surfaces touch, in S's frame: the common normal
 // from both leaves' patches, or the foot's normal (no shift) when either leaf has
-// no patch, or when the foot's is flat (a face: its normal is the common normal
-// whatever Q's shape) and either the pair deforms or Q's is flat too (a rigid
-// curved Q on a face touches it at Q's lowest point: the shift goes there).
+// no patch or both are flat. A face's normal is the common normal whatever Q's
+// shape; a curved Q on it touches it at Q's lowest point, where the shift goes.
 PairGeometry PairNormal(const SphereTree& tq, int lq, const Pose& q_to_s, const SphereTree& ts, int ls,
-                        const MlsProjection& proj, bool rigid_pair) {
+                        const MlsProjection& proj) {
   const PairGeometry foot{proj.normal, Vec3::Zero()};
   const MlsPatch* pq = tq.leaf_patch(lq);
   const MlsPatch* ps = ts.leaf_patch(ls);
@@ -567,8 +566,7 @@ PairGeometry PairNormal(const SphereTree& tq, int lq, const Pose& q_to_s, const 
   const auto flat = [](const double* k, double h) {
     return !(std::abs(k[3]) + std::abs(k[4]) + std::abs(k[5]) > 0.5 * kFlatCurvature * h);
   };
-  // a flat foot keeps its normal: only a rigid pair's shift needs Q's curvature then
-  if (flat(c, ps->h) && (!rigid_pair || flat(cq, pq->h))) return foot;
+  if (flat(c, ps->h) && flat(cq, pq->h)) return foot;
   const Vec3 n_q = q_to_s.R * pq->NormalBelow(tq.control_point(lq));
   const PairGeometry g = CommonNormal(proj.normal, *ps, n_q, *pq, q_to_s.R);
   return g.normal.allFinite() && g.shift.allFinite() ? g : foot;
@@ -639,13 +637,22 @@ void ProjectSide(int id_q, const SphereTree& tq, const Pose& q_to_s, int id_s, c
     c.body[1] = id_s;
     c.leaf = lq;
     c.surface_leaf = coupled;
-    PairGeometry pg = params.common_normal ? PairNormal(tq, lq, q_to_s, ts, coupled, proj, rigid_pair)
+    PairGeometry pg = params.common_normal ? PairNormal(tq, lq, q_to_s, ts, coupled, proj)
                                            : PairGeometry{proj.normal, Vec3::Zero()};
-    // between deforming surfaces the sample points are where the surfaces press (they
-    // conform over a patch); and a deforming side's eq. 8 weights are taken at its anchor
-    if (!rigid_pair) pg.shift.setZero();
-    c.anchor[0] = tq.control_point(lq) + q_to_s.R.transpose() * pg.shift;
-    c.anchor[1] = proj.point + pg.shift;
+    // Between rigid surfaces the anchors move to the touching point. Deforming
+    // surfaces conform over a patch: each sample presses where it is, its eq. 8
+    // weights and friction stay there, and only its normal force's lever arm for the
+    // bodies' rigid motion ends at the touching point (Contact::touch).
+    const Vec3 shift_q = q_to_s.R.transpose() * pg.shift;
+    c.anchor[0] = tq.control_point(lq);
+    c.anchor[1] = proj.point;
+    if (rigid_pair) {
+      c.anchor[0] += shift_q;
+      c.anchor[1] += pg.shift;
+    } else {
+      c.touch[0] = shift_q;
+      c.touch[1] = pg.shift;
+    }
     c.normal = pose_s.Rotate(pg.normal);
     c.gap = gap;
     c.key = ContactKey(id_q, id_s, lq);

@@ -71,6 +71,11 @@ struct Contact {
   int leaf = -1;           ///< control point of body[0]
   int surface_leaf = -1;   ///< coupled leaf of body[1] (-1 against a plane)
   Vec3 anchor[2];          ///< contact point in each body's rest frame (m)
+  /// Rest-frame offset from anchor[s] to where the two rest surfaces touch. A pair
+  /// with a deforming side keeps its anchors at the sample point (its eq. 8 weights
+  /// and friction act there) and its normal force turns the bodies about this point
+  /// (contact_space.cpp); between rigid surfaces the anchors are moved there instead.
+  Vec3 touch[2] = {Vec3::Zero(), Vec3::Zero()};
   Vec3 normal;             ///< world frame, unit, from body[1] toward body[0]
   double gap = 0.0;        ///< signed distance (m), negative when interpenetrating
   uint64_t key = 0;        ///< stable id for warm starting

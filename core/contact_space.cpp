@@ -157,6 +157,7 @@ void BuildContactSpace(World& w) {
     row.frame = frame;
     Vec3 world_pt[2];
     Vec3 slip = Vec3::Zero();
+    double normal_turn = 0.0;  // what the free motion adds to the normal slip at the touching points
     row.w_diag.setZero();
     // the same contact in the last step, if any
     row.prev = prev_rows.Find(c.key);
@@ -206,6 +207,7 @@ void BuildContactSpace(World& w) {
       // stays close to; what is left, dtheta x (u_new - u), vanishes in a steady hold.
       const Vec3 x = side.count > 0 ? Vec3(c.anchor[s] + SideDisplacement(side, b.u)) : c.anchor[s];
       const Vec3 lever_pt = b.pose.Apply(x);
+      const Vec3 arm = b.pose.Rotate(c.touch[s]);  // to where the rest surfaces touch (Contact::touch)
       if (b.articulation < 0) {
         // fixed or kinematic: its prescribed motion over the step
         slip += side.sign * (lever_pt - b.pose_prev.Apply(x));
@@ -225,9 +227,12 @@ void BuildContactSpace(World& w) {
       if (a.finger < 0) {
         // a free body: its lever arm, J applied in place (core/contact_jacobian.h)
         const Vec3 lever = lever_pt - b.pose.t;
+        const Vec3 spin = arm.cross(n);
         side.lever = lever;
+        side.spin = spin;
         slip += side.sign * FreeSideMotion(a.dq_free, lever);
-        AddFreeSideBlock(a, lever, n, t1, t2, &row.w_diag);
+        normal_turn += side.sign * a.dq_free.tail<3>().dot(spin);
+        AddFreeSideBlock(a, lever, spin, n, t1, t2, &row.w_diag);
         continue;
       }
       Eigen::Matrix<double, 3, 6> J;
@@ -239,12 +244,20 @@ void BuildContactSpace(World& w) {
       side.jacobian = static_cast<int>(w.side_jacobians.size());
       SideJacobian& jac = w.side_jacobians.emplace_back();
       jac.h = side.sign * frame * J;
+      if (!c.touch[s].isZero()) {
+        // the normal row at the touching point
+        Eigen::Matrix<double, 1, 6> jn = Eigen::Matrix<double, 1, 6>::Zero();
+        jn.leftCols<4>() = n.transpose() * FingerPointJacobian(w.hand.fingers[a.finger].kin, lever_pt + arm);
+        normal_turn += side.sign * (jn - n.transpose() * J) * a.dq_free;
+        jac.h.row(0) = side.sign * jn;
+      }
       jac.g = a.a_inv * jac.h.transpose();
       row.w_diag += jac.h * jac.g;
     }
     row.world_point = 0.5 * (world_pt[0] + world_pt[1]);
     row.q = Vec3(c.gap, t1.dot(slip), t2.dot(slip));
-    row.gap_start = c.gap - n.dot(slip);  // the free motion's share taken out; deformation added below
+    // the free motion's share taken out (the normal's at the touching point); deformation added below
+    row.gap_start = c.gap - n.dot(slip) - normal_turn;
     row.held_back = 0.0;
     row.mu = w.Friction(c.body[0], c.body[1]);
     ++w.profile.work.w_blocks_built;

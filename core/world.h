@@ -159,6 +159,10 @@ struct ContactSide {
   /// of its control points (rest frame), the force in the rest frame being
   /// sign * R^T frame^T dr: R is the body's, read at the solve.
   Vec3 lever;
+  /// A free body's side: (arm x n), arm from the material point to where the rest
+  /// surfaces touch (Contact::touch, world): the normal force turns the body about
+  /// that point, its row is n . (v + w x (lever + arm)). Zero without a touch offset.
+  Vec3 spin;
   /// A finger's side: its H and A^-1 H^T in World::side_jacobians (-1: none)
   int jacobian = -1;
   double sign = 1.0;

@@ -27,17 +27,26 @@ TEST(ContactJacobian, FreeSideBlockIsTheDelassusBlockOfTheLeverArm) {
     const Vec3 n = Vec3(u(rng), u(rng), u(rng)).normalized();
     const Vec3 t1 = AnyPerpendicular(n);
     const Vec3 t2 = n.cross(t1);
+    // every other trial, a touch offset: the normal row's arm ends at lever + arm
+    const Vec3 arm = trial % 2 ? Vec3(0.002 * Vec3(u(rng), u(rng), u(rng))) : Vec3::Zero();
     Mat3 w = Mat3::Zero();
-    AddFreeSideBlock(a, lever, n, t1, t2, &w);
-    // the Delassus block formed whole: frame J A^-1 J^T frame^T with J = [I, -[l]x]
-    Eigen::Matrix<double, 3, 6> j;
-    j.leftCols<3>() = Mat3::Identity();
-    j.rightCols<3>() << 0, lever.z(), -lever.y(), -lever.z(), 0, lever.x(), lever.y(), -lever.x(), 0;
+    AddFreeSideBlock(a, lever, arm.cross(n), n, t1, t2, &w);
+    // the Delassus block formed whole: H A^-1 H^T with H = frame [I, -[l]x], its
+    // normal row n^T [I, -[l + arm]x]
+    const auto skew = [](const Vec3& l) {
+      Mat3 m;
+      m << 0, -l.z(), l.y(), l.z(), 0, -l.x(), -l.y(), l.x(), 0;
+      return m;
+    };
     Mat3 frame;
     frame.row(0) = n;
     frame.row(1) = t1;
     frame.row(2) = t2;
-    const Mat3 direct = frame * j * a.a_inv * j.transpose() * frame.transpose();
+    Eigen::Matrix<double, 3, 6> h;
+    h.leftCols<3>() = frame;
+    h.rightCols<3>() = -frame * skew(lever);
+    h.row(0).tail<3>() = -n.transpose() * skew(lever + arm);
+    const Mat3 direct = h * a.a_inv * h.transpose();
     ASSERT_LT((w - direct).norm(), 1e-10 * direct.norm()) << "trial " << trial;
     ASSERT_EQ(w, w.transpose()) << "trial " << trial;  // symmetric by construction
     ++compared;

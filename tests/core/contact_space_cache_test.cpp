@@ -47,7 +47,8 @@ TEST(ContactSpaceCache, OperatorMatchesDiagonalBlocksAndIsSymmetric) {
         ASSERT_LT(s.jacobian, 0);
         Eigen::Matrix<double, 3, 6> J;
         J << Mat3::Identity(), -Skew(s.lever);
-        const Eigen::Matrix<double, 3, 6> H = s.sign * row.frame * J;
+        Eigen::Matrix<double, 3, 6> H = s.sign * row.frame * J;
+        H.row(0).tail<3>() += s.sign * s.spin.transpose();  // the normal row's arm ends at the touching point
         // the lever reaches the contact point (from the centre at the solve; the step moved it since)
         EXPECT_LT((s.lever - (row.world_point - b.pose.t)).norm(), 1e-3);
         // probed through the accumulators of w itself, restored after

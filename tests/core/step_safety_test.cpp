@@ -201,7 +201,7 @@ TEST(StepSafety, SkippedSolveKeepsTheLastForces) {
 }
 
 // What the reported forces r move an articulation by: A^-1 H^T r summed over the
-// contact sides on it (free bodies: J^T f = (f, lever x f)).
+// contact sides on it (free bodies: J^T f = (f, lever x f + f_n spin)).
 Vec6 ResponseOfReportedForces(const World& w, int articulation) {
   const Articulation& a = w.articulations[articulation];
   Vec6 dq = Vec6::Zero();
@@ -210,7 +210,7 @@ Vec6 ResponseOfReportedForces(const World& w, int articulation) {
     for (const ContactSide& s : row.side) {
       if (s.articulation != articulation) continue;
       dq.head<3>() += a.a_inv.topLeftCorner<3, 3>() * (s.sign * f);
-      dq.tail<3>() += a.a_inv.bottomRightCorner<3, 3>() * s.lever.cross(s.sign * f);
+      dq.tail<3>() += a.a_inv.bottomRightCorner<3, 3>() * (s.lever.cross(s.sign * f) + s.sign * row.r[0] * s.spin);
     }
   }
   return dq;
