@@ -5,6 +5,16 @@
 // no ledges (normals tilted where the face's control points meet the fingertip
 // would show as a ripple at the control-point spacing). Both contact modes, soft
 // and rigid fingertips.
+//
+// Coulomb's law is per contact: a sliding contact carries mu times its normal
+// force, a sticking one (zero slip velocity) at most that. A soft fingertip in
+// two-pass contact has steps where one of the face's contacts on it sticks while
+// its skin stretches under it (the contact moves across the skin as the tip
+// slides); the sum then carries less than mu N, as Coulomb's law allows. So the
+// measure is the worst step whose every contact slides (there the sum is mu N
+// exactly), the worst step above mu (added grip, wrong in every step) and the
+// mean over the window; the steps with a sticking contact are counted and their
+// deepest dip reported.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -26,11 +36,21 @@ constexpr double kRamp = 0.2;       // s to reach the speed (then the measure be
 
 struct SlideRun {
   bool finite = true;
+  bool converged = true;   // every step's solve met its tolerance
   double mean = 0.0;       // mean tangential / normal force over the window
-  double worst = 0.0;      // largest |ratio - mu| / mu of a step in the window
+  double worst = 0.0;      // largest |ratio - mu| / mu of a step whose contacts all slide, or above mu
   double min = 0.0, max = 0.0;
   int steps = 0;
+  int stick_steps = 0;     // steps with a loaded contact inside its cone
 };
+
+// a contact carrying at least 1% of the load strictly inside its cone (by 0.1%)
+bool SomeContactSticks(const World& w, double load) {
+  for (const ContactRow& row : w.rows) {
+    if (row.r[0] > 0.01 * load && row.r.tail<2>().norm() < 0.999 * row.mu * row.r[0]) return true;
+  }
+  return false;
+}
 
 int AddBox(World& w, bool two_pass) {
   BodySpec b;
@@ -84,8 +104,6 @@ Vec3 ForceOn(const World& w, int tip) {
 SlideRun RunSlide(bool two_pass, bool rigid, double window) {
   World w;
   w.params.dt = 1e-3;
-  w.params.solver.tolerance = 1e-9;
-  w.params.solver.max_iterations = 300;
   const int box = AddBox(w, two_pass);
   const int tip = AddTip(w, rigid);
   SlideRun r;
@@ -111,14 +129,18 @@ SlideRun RunSlide(bool two_pass, bool rigid, double window) {
     const Vec3 f = ForceOn(w, tip);
     r.finite &= f.allFinite();
     if (t < kSettle + kRamp + 0.5 * w.params.dt) continue;
+    r.converged &= w.profile.converged;
     const double ratio = f.z() > 0.0 ? -f.x() / f.z() : INFINITY;  // friction acts against +x
     r.min = std::min(r.min, ratio);
     r.max = std::max(r.max, ratio);
-    r.worst = std::max(r.worst, std::abs(ratio - kMu) / kMu);
+    const bool sticks = SomeContactSticks(w, f.z());
+    r.stick_steps += sticks ? 1 : 0;
+    r.worst = std::max(r.worst, sticks ? (ratio - kMu) / kMu : std::abs(ratio - kMu) / kMu);
     sum += ratio;
     ++r.steps;
   }
   r.mean = r.steps > 0 ? sum / r.steps : NAN;
+  r.worst = std::max(r.worst, std::abs(r.mean - kMu) / kMu);
   return r;
 }
 
@@ -130,14 +152,16 @@ std::vector<ValidationResult> ValidateSlide(const ValidationOptions& opt) {
   for (int rigid = 0; rigid < 2; ++rigid) {
     for (int two_pass = 1; two_pass >= 0; --two_pass) {
       const SlideRun s = RunSlide(two_pass != 0, rigid != 0, window);
-      char d[320];
+      char d[400];
       std::snprintf(d, sizeof d,
                     "%d steps sliding at %.3g m/s: F_t / F_n mean %.5f, min %.5f, max %.5f (mu %.3g; worst step "
-                    "%.3g%% off, limit 1%%)",
-                    s.steps, kSpeed, s.mean, s.min, s.max, kMu, 100.0 * s.worst);
+                    "with every contact sliding, or above mu, %.3g%% off, limit 1%%; %d steps with a sticking "
+                    "contact)%s",
+                    s.steps, kSpeed, s.mean, s.min, s.max, kMu, 100.0 * s.worst, s.stick_steps,
+                    s.converged ? "" : ", some solves unconverged");
       const std::string mode = two_pass ? "two-pass" : "one-pass";
       const std::string name = std::string("slide_flat_") + (rigid ? "rigid" : "soft") + "_" + mode;
-      out.push_back(Result(name, s.finite && s.steps > 0 ? s.worst : INFINITY, 0.01, "relative", d, mode));
+      out.push_back(Result(name, s.finite && s.converged && s.steps > 0 ? s.worst : INFINITY, 0.01, "relative", d, mode));
     }
   }
   return out;

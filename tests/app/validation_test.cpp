@@ -114,7 +114,7 @@ TEST(Validation, PinchHoldsJustAboveAndFallsJustBelowTheFrictionThreshold) {
     // at 0.995 mu* no mode may hold: two-pass contact with the foot's normal did (ledges)
     EXPECT_TRUE(fall->pass) << fall->detail;
     EXPECT_TRUE(slip->pass) << slip->detail;
-    EXPECT_LT(slip->error, 0.02) << slip->detail;  // relative error of g (1 - mu / mu*)
+    EXPECT_LT(slip->error, 0.01) << slip->detail;  // relative error of g (1 - mu / mu*)
     EXPECT_EQ(hold->contact_mode, std::string(sfx).find("two-pass") != std::string::npos ? "two-pass" : "one-pass");
   }
 }
@@ -165,15 +165,16 @@ TEST(Validation, SlideAlongAFlatFaceGivesMuWithoutRipple) {
   GTEST_SKIP() << "four 0.9 s simulations of a 10,000-point box (minutes under sanitizers); the release build runs it";
 #endif
   const auto v = ValidateSlide(Quick());
-  // slide_flat_soft_two-pass is not asserted: one step in its window dips to
-  // F_t / F_n = 0.4814 (3.7% under mu; the mean over 1,500 steps is 0.49995), a
-  // single event, not a ripple at the control-point spacing, and not diagnosed yet
-  // (docs/collision.md, "Still weak"); `graspsim validate slide` reports it
-  for (const char* name : {"slide_flat_rigid_two-pass", "slide_flat_rigid_one-pass", "slide_flat_soft_one-pass"}) {
+  // every mode, at the step's default tolerance: a step whose contacts all slide
+  // carries mu N (ledges at the control-point spacing gave several percent), no step
+  // carries more, and the mean over the window is mu. A soft fingertip in two-pass
+  // contact has a few steps where one of the face's contacts on its skin sticks
+  // (Coulomb allows less than mu N there): those bound the sum from above only
+  for (const char* name : {"slide_flat_soft_two-pass", "slide_flat_soft_one-pass", "slide_flat_rigid_two-pass",
+                           "slide_flat_rigid_one-pass"}) {
     const ValidationResult* r = Find(v, name);
     ASSERT_NE(r, nullptr) << name;
     EXPECT_TRUE(r->pass) << r->detail;
-    // worst step's |F_t / F_n - mu| / mu: ledges at the control-point spacing gave several percent
     EXPECT_LT(r->error, 0.01) << r->detail;
   }
 }
