@@ -18,7 +18,8 @@ const char* FcMethodName(EFcMethod m) {
 std::string FcMethodResult::Summary() const {
   char buf[320];
   std::snprintf(buf, sizeof buf, "%s: NSGS %d sweeps%s (%.3f ms), Newton %d steps, %d factorisations (%.3f ms), error %.3e, %s",
-                FcMethodName(method), nsgs.iterations, nsgs.stagnated ? " until stagnation" : "",
+                FcMethodName(method), nsgs.iterations,
+                nsgs_resumed ? " (resumed after Newton)" : nsgs.stagnated ? " until stagnation" : "",
                 1e3 * nsgs_seconds, newton.iterations, newton.factorizations, 1e3 * newton_seconds, error,
                 FcStopName(stop));
   return buf;
@@ -30,22 +31,25 @@ double Since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
-void RunNsgs(const FcProblem& p, EFcMethod method, const FcMethodParams& params, double budget,
-             Eigen::VectorXd* r, FcMethodResult* out) {
+// NSGS from *r; the stagnation rule only in auto's first stage
+void RunNsgs(const FcProblem& p, bool stagnation_rule, int max_sweeps, const FcMethodParams& params,
+             double budget, Eigen::VectorXd* r, FcMethodResult* out) {
   const auto t0 = std::chrono::steady_clock::now();
   FcSolveParams sp;
   sp.nsgs.tolerance = params.tolerance;
-  sp.nsgs.max_iterations = params.max_sweeps;
+  sp.nsgs.max_iterations = max_sweeps;
   sp.nsgs.over_relaxation = params.over_relaxation;
   sp.nsgs.order = params.order;
   sp.nsgs.extrapolate_every = params.extrapolate_every;
   sp.nsgs.time_budget_s = budget;
-  if (method == EFcMethod::Auto) {
+  if (stagnation_rule) {
     sp.nsgs.stagnation_window = params.stagnation_window;
     sp.nsgs.stagnation_ratio = params.stagnation_ratio;
   }
+  const int before = out->nsgs.iterations;
   out->nsgs = SolveFcProblem(p, sp, r).nsgs;
-  out->nsgs_seconds = Since(t0);
+  out->nsgs.iterations += before;
+  out->nsgs_seconds += Since(t0);
   out->error = out->nsgs.error;
   out->converged = out->nsgs.converged;
   out->stop = out->nsgs.converged        ? EFcStop::Converged
@@ -54,13 +58,27 @@ void RunNsgs(const FcProblem& p, EFcMethod method, const FcMethodParams& params,
                                          : EFcStop::IterationCap;
 }
 
-void RunNewton(const FcProblem& p, const FcMethodParams& params, double budget, Eigen::VectorXd* r,
-               FcMethodResult* out) {
+// NSGS's pace when its stagnation rule fired: the rate of its error, in
+// log(error) per second, over the window that fired it (0: no progress)
+double NsgsRate(const FcMethodResult& out, const FcMethodParams& params) {
+  const double ratio = out.nsgs.stall_ratio;
+  if (!(ratio < 1.0) || !(ratio > 0.0) || out.nsgs.iterations <= 0 || !(out.nsgs_seconds > 0.0)) return 0.0;
+  return std::log(ratio) / (params.stagnation_window * out.nsgs_seconds / out.nsgs.iterations);
+}
+
+void RunNewton(const FcProblem& p, const FcMethodParams& params, double budget, double rival_rate,
+               Eigen::VectorXd* r, FcMethodResult* out) {
   const auto t0 = std::chrono::steady_clock::now();
   FcNewtonParams np;
   np.tolerance = params.tolerance;
   np.max_iterations = params.max_newton;
   np.time_budget_s = budget;
+  if (rival_rate < 0.0) {
+    // Newton's first steps are its slowest (proximal, far from the solution): it is
+    // judged after a tenth of the time NSGS would still need at its pace
+    np.rival_rate = rival_rate;
+    np.rival_grace_s = 0.1 * std::log(params.tolerance / std::max(out->error, params.tolerance)) / rival_rate;
+  }
   out->newton = SolveFcNewton(p, np, r);
   out->newton_ran = true;
   out->newton_seconds = Since(t0);
@@ -90,16 +108,24 @@ FcMethodResult SolveFcMethod(const FcProblem& p, EFcMethod method, const FcMetho
   FcMethodResult out;
   out.method = method;
   if (r->size() != 3 * p.contacts) r->setZero(3 * p.contacts);
-  if (method != EFcMethod::Newton) RunNsgs(p, method, params, params.time_budget_s, r, &out);
-  const bool budget_left = params.time_budget_s <= 0.0 || Since(t0) < params.time_budget_s;
-  if (method == EFcMethod::Newton || (method == EFcMethod::Auto && !out.converged && budget_left)) {
-    const double budget = params.time_budget_s > 0.0 ? params.time_budget_s - Since(t0) : 0.0;
+  const auto left = [&] { return params.time_budget_s > 0.0 ? params.time_budget_s - Since(t0) : 0.0; };
+  const auto budget_left = [&] { return params.time_budget_s <= 0.0 || Since(t0) < params.time_budget_s; };
+  if (method != EFcMethod::Newton)
+    RunNsgs(p, method == EFcMethod::Auto, params.max_sweeps, params, params.time_budget_s, r, &out);
+  if (method == EFcMethod::Newton || (method == EFcMethod::Auto && !out.converged && budget_left())) {
     const Eigen::VectorXd from_nsgs = *r;
     const double nsgs_error = out.error;
-    RunNewton(p, params, budget, r, &out);
+    // auto races Newton against the pace NSGS had when it was stopped
+    const double rival = method == EFcMethod::Auto && out.nsgs.stagnated ? NsgsRate(out, params) : 0.0;
+    RunNewton(p, params, left(), rival, r, &out);
     if (method == EFcMethod::Auto && out.newton_ran && !(out.error < nsgs_error)) {
       *r = from_nsgs;  // Newton found nothing better: keep NSGS's forces, and Newton's stop reason
       out.error = nsgs_error;
+    }
+    if (out.stop == EFcStop::Outpaced && out.nsgs.iterations < params.max_sweeps && budget_left()) {
+      // NSGS was converging faster: it goes on from the better forces, to its cap
+      out.nsgs_resumed = true;
+      RunNsgs(p, false, params.max_sweeps - out.nsgs.iterations, params, left(), r, &out);
     }
   }
   if (out.converged && UnboundedForces(p, *r, params.tolerance)) {

@@ -1,7 +1,9 @@
 // Solver choice for explicit frictional contact problems (FcProblem): NSGS
 // alone, the proximal semi-smooth Newton method alone (fc_newton.h), or auto:
 // NSGS until its stagnation rule fires (NsgsParams::stagnation_window), then
-// Newton from the NSGS forces. Every stage has its cap, and the result says
+// Newton from the NSGS forces, raced against the pace NSGS had: a Newton whose
+// error falls more slowly per second stops (Outpaced) and NSGS goes on from the
+// better forces, without the rule. Every stage has its cap, and the result says
 // which one ended the solve (EFcStop). A result that meets the tolerance only
 // because the forces are huge (|r| mean(diag W) > 1e4 |q| while the error
 // relative to |q| alone exceeds it) is reported as Diverged, not converged:
@@ -38,6 +40,9 @@ struct FcMethodResult {
   NsgsResult nsgs;                     ///< NSGS stage (sweeps 0 when it did not run)
   FcNewtonResult newton;               ///< Newton stage (iterations 0 when it did not run)
   bool newton_ran = false;
+  /// auto: Newton was outpaced by NSGS's pace before the stagnation, and NSGS went on
+  /// from the better forces (its sweeps and time are added to `nsgs`, `nsgs_seconds`)
+  bool nsgs_resumed = false;
   double error = 0.0;                  ///< Siconos error of the returned forces
   bool converged = false;
   EFcStop stop = EFcStop::IterationCap;  ///< what ended the solve

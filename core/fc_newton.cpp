@@ -13,6 +13,7 @@ const char* FcStopName(EFcStop stop) {
     case EFcStop::Converged: return "converged";
     case EFcStop::IterationCap: return "iteration cap reached";
     case EFcStop::TimeCap: return "time budget reached";
+    case EFcStop::Outpaced: return "outpaced (the other method was converging faster)";
     case EFcStop::Stagnated: return "stagnated (no progress)";
     case EFcStop::LineSearchFailed: return "line search failed (no step reduces the Alart-Curnier residual)";
     case EFcStop::Diverged: return "forces grow without bound: the problem is likely infeasible";
@@ -203,6 +204,16 @@ double SiconosErrorOf(const FcProblem& p, const Eigen::VectorXd& r, const Eigen:
   return den > 2.220446049250313e-16 ? std::sqrt(num) / den : std::sqrt(num);
 }
 
+// The race of FcNewtonParams::rival_rate: true when, past its grace, Newton's
+// error has fallen more slowly per second than the rival's would
+bool Outpaced(const FcNewtonParams& params, int steps, double start_error, double best_error,
+              std::chrono::steady_clock::time_point t0) {
+  if (!(params.rival_rate < 0.0) || steps < params.rival_after) return false;
+  const double spent = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  if (spent < params.rival_grace_s || !(spent > 0.0) || !(start_error > 0.0)) return false;
+  return std::log(best_error / start_error) / spent > params.rival_rate;
+}
+
 }  // namespace
 
 FcNewtonResult SolveFcNewton(const FcProblem& p, const FcNewtonParams& params, Eigen::VectorXd* r) {
@@ -214,6 +225,7 @@ FcNewtonResult SolveFcNewton(const FcProblem& p, const FcNewtonParams& params, E
   res.error = SiconosErrorOf(p, *r, ac.Velocity(*r));
   Eigen::VectorXd best = *r, phi(m), trial_phi(m), d(m), trial(m), centre = *r;
   double best_error = res.error;
+  const double start_error = res.error;
   const double sigma_min = 1e-12 * ac.MeanDiagonal(), sigma_max = 1e8 * ac.MeanDiagonal();
   // forces beyond this are taken as divergence: far above any force that balances q
   const double force_limit = 1e12 * std::max(1.0, p.q.norm() / ac.MeanDiagonal());
@@ -263,6 +275,10 @@ FcNewtonResult SolveFcNewton(const FcProblem& p, const FcNewtonParams& params, E
     }
     if (!(r->norm() < force_limit)) {
       res.stop = EFcStop::Diverged;
+      break;
+    }
+    if (best_error > params.tolerance && Outpaced(params, res.iterations, start_error, best_error, t0)) {
+      res.stop = EFcStop::Outpaced;
       break;
     }
   }

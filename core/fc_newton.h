@@ -36,6 +36,7 @@ enum class EFcStop {
   Stagnated,         ///< the method stopped making progress (NSGS: stagnation rule)
   LineSearchFailed,  ///< Newton: no step reduced the merit even with the largest proximal weight
   Diverged,          ///< the forces grew without bound: the problem is likely infeasible
+  Outpaced,          ///< Newton: slower than the rival rate it was given (FcNewtonParams::rival_rate)
 };
 
 /// A sentence for a stop reason, e.g. "iteration cap reached".
@@ -46,6 +47,13 @@ struct FcNewtonParams {
   int max_iterations = 200;    ///< Newton steps (each one LU factorisation)
   double time_budget_s = 0.0;  ///< 0: none
   double sigma0 = 1e-4;        ///< initial proximal weight, relative to the mean diagonal of W
+  /// A race (0: none): the rate, in log(error) per second (negative), at which
+  /// another method would go on. After `rival_after` steps and rival_grace_s, a
+  /// Newton whose own rate since its start (log(best / initial error) over its
+  /// time) is slower stops with Outpaced, its best forces in *r.
+  double rival_rate = 0.0;
+  int rival_after = 3;
+  double rival_grace_s = 0.0;
 };
 
 struct FcNewtonResult {

@@ -122,6 +122,9 @@ struct NsgsResult {
   /// mixed iterate the sweep read, not a bound
   bool error_estimated = false;
   bool stagnated = false;  ///< stopped by the stagnation rule (NsgsParams::stagnation_window)
+  /// With `stagnated`: the lowest estimate's fall over the window that fired the
+  /// rule (its value at the end over its value at the start; 1: no progress)
+  double stall_ratio = 1.0;
 };
 
 /// The stagnation rule of NsgsParams, fed the in-sweep estimate of every sweep.
@@ -129,11 +132,13 @@ struct NsgsStagnation {
   double best = std::numeric_limits<double>::infinity();
   double best_at_mark = std::numeric_limits<double>::infinity();
   int mark = 0;
+  double ratio = 1.0;  ///< best / best_at_mark over the last whole window
   /// True when a whole window passed without the progress the rule asks for.
   bool Stalled(double estimate, int sweep, const NsgsParams& p) {
     if (estimate < best) best = estimate;
     if (p.stagnation_window <= 0 || sweep - mark < p.stagnation_window) return false;
     const bool stalled = mark > 0 && !(best <= p.stagnation_ratio * best_at_mark);
+    ratio = mark > 0 && best_at_mark > 0.0 ? std::min(1.0, best / best_at_mark) : 1.0;
     best_at_mark = best;
     mark = sweep;
     return stalled;
@@ -410,6 +415,7 @@ NsgsResult SolveNsgs(Op& op, Vec3* r, const NsgsParams& p, NsgsScratch& s) {
       ++res.exact_checks;
       res.converged = res.error <= p.tolerance;
       res.stagnated = !res.converged;
+      res.stall_ratio = stagnation.ratio;
       break;
     }
     if (K <= 0 || sweep % K != 0 || res.iterations >= p.max_iterations) continue;
