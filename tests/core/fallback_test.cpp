@@ -88,14 +88,19 @@ TEST(Fallback, AutoSolvesEveryGeneratedFamily) {
 // race is on time, so which method finishes depends on the machine: both must end
 // on a solution, and a Newton that lost hands over to NSGS, never stops the solve
 TEST(Fallback, AutoEndsOnASolutionWhicheverMethodWinsTheRace) {
-  for (const FcProblem& p : {PileProblem(60, 0.1, 1.0, 1), MassRatioStackProblem(10, 1000.0, 1)}) {
+  // the pile trips the stagnation rule in the release build (600 sweeps) and, with
+  // other rounding, may converge before it; the stack always stalls NSGS
+  for (const bool stack : {false, true}) {
+    const FcProblem p = stack ? MassRatioStackProblem(10, 1000.0, 1) : PileProblem(60, 0.1, 1.0, 1);
     FcMethodParams mp;
     mp.max_sweeps = 20000;
     Eigen::VectorXd r;
     const FcMethodResult res = SolveFcMethod(p, EFcMethod::Auto, mp, &r);
     EXPECT_TRUE(res.converged) << res.Summary();
     EXPECT_LE(FcError(p, r), 1e-6) << res.Summary();
-    EXPECT_TRUE(res.newton_ran) << res.Summary();  // both stall the rule (ratio 0.5 per 200 sweeps)
+    if (stack) {
+      EXPECT_TRUE(res.newton_ran) << res.Summary();
+    }
     if (res.nsgs_resumed) {
       EXPECT_EQ(res.newton.stop, EFcStop::Outpaced) << res.Summary();
       EXPECT_NE(res.Summary().find("resumed after Newton"), std::string::npos);
