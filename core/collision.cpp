@@ -485,6 +485,8 @@ bool ProjectNear(const SphereTree& ts, const Vec3* pos, const Vec3* nrm, const V
 struct PairGeometry {
   Vec3 normal;
   Vec3 shift;
+  bool face = false;  ///< a face's point against an edge or a face (FaceOnEdge): normal the face's
+  bool beside = false;  ///< a face's point beside S, its foot on a side turned away from the face: no contact
 };
 
 // Below this curvature (1/m: radius 1 m) a direction is taken as flat in CommonNormal.
@@ -550,6 +552,22 @@ PairGeometry CommonNormal(const Vec3& n_s, const MlsPatch& ps, const Vec3& n_q, 
   return g;
 }
 
+// A flat face's point (Q, normal n_q) whose foot on S is near a sharp edge or
+// corner (a leaf with no trusted patch) or on a leaf whose patch is flat at its
+// centre while the foot, at its border, is already on the MLS surface's rounding
+// of an edge: the foot's normal has turned, the face's has not. CommonNormal with
+// a flat Q gives -n_q for any curvature of S; at an edge (curvature without
+// bound) the touching point is the foot. Between two faces that truly face each
+// other -n_q and n_s agree. A box resting on a slab otherwise pressed the slab's
+// points under its edges along the rounding's normals, 25 to 34 degrees off. A
+// foot on a side turned more than 60 degrees from the face is no touch of the
+// face (`beside`): a sliding box's leading side pushed it back through the slab's
+// points in front of it.
+PairGeometry FaceOnEdge(const Vec3& n_s, const Vec3& n_q) {
+  if (!(-n_q.dot(n_s) > std::cos(kMaxPairAngle))) return {n_s, Vec3::Zero(), false, true};
+  return {-n_q, Vec3::Zero(), true};
+}
+
 // The contact normal of query leaf lq (Q) projected onto S near leaf ls, and the
 // shift from the foot to where the surfaces touch, in S's frame: the common normal
 // from both leaves' patches, or the foot's normal (no shift) when either leaf has
@@ -560,13 +578,16 @@ PairGeometry PairNormal(const SphereTree& tq, int lq, const Pose& q_to_s, const 
   const PairGeometry foot{proj.normal, Vec3::Zero()};
   const MlsPatch* pq = tq.leaf_patch(lq);
   const MlsPatch* ps = ts.leaf_patch(ls);
-  if (!pq || !ps) return foot;
-  const double* c = ps->c;
-  const double* cq = pq->c;
   const auto flat = [](const double* k, double h) {
     return !(std::abs(k[3]) + std::abs(k[4]) + std::abs(k[5]) > 0.5 * kFlatCurvature * h);
   };
-  if (flat(c, ps->h) && flat(cq, pq->h)) return foot;
+  // Q's point on a face: its patch flat or, untrusted, its leaf's normals within 3 degrees
+  const bool face_q = pq ? flat(pq->c, pq->h) : tq.leaf_flatness(lq) > kFlatCos;
+  if (face_q && (!ps || flat(ps->c, ps->h))) {
+    const Vec3 n_q = pq ? pq->NormalBelow(tq.control_point(lq)) : tq.leaf_normal(lq);
+    return FaceOnEdge(proj.normal, q_to_s.R * n_q);
+  }
+  if (!pq || !ps) return foot;
   const Vec3 n_q = q_to_s.R * pq->NormalBelow(tq.control_point(lq));
   const PairGeometry g = CommonNormal(proj.normal, *ps, n_q, *pq, q_to_s.R);
   return g.normal.allFinite() && g.shift.allFinite() ? g : foot;
@@ -639,6 +660,15 @@ void ProjectSide(int id_q, const SphereTree& tq, const Pose& q_to_s, int id_s, c
     c.surface_leaf = coupled;
     PairGeometry pg = params.common_normal ? PairNormal(tq, lq, q_to_s, ts, coupled, proj)
                                            : PairGeometry{proj.normal, Vec3::Zero()};
+    // a face's point beside a side of S turned away from it touches nothing; against
+    // an edge its gap is measured along the face's normal: beside the footprint of
+    // S the rounding's foot is level with it, no support below S
+    if (pg.beside) {
+      ++stats->rejected;
+      continue;
+    }
+    const double gap_n = pg.face ? (x - proj.point).dot(pg.normal) : gap;
+    if (!(gap_n < params.contact_threshold)) continue;
     // Between rigid surfaces the anchors move to the touching point. Deforming
     // surfaces conform over a patch: each sample presses where it is, its eq. 8
     // weights and friction stay there, and only its normal force's lever arm for the
@@ -654,7 +684,7 @@ void ProjectSide(int id_q, const SphereTree& tq, const Pose& q_to_s, int id_s, c
       c.touch[1] = pg.shift;
     }
     c.normal = pose_s.Rotate(pg.normal);
-    c.gap = gap;
+    c.gap = gap_n;
     c.key = ContactKey(id_q, id_s, lq);
     if (out->Push(c)) ++stats->contacts;
   }

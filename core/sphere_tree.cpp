@@ -216,6 +216,37 @@ SphereTree::EBuildError SphereTree::Build(const PointCloud& cloud, const MlsPara
   return EBuildError::None;
 }
 
+// Two surfaces of a thin part (a slab's faces) in one node: when the points, sorted
+// along the split axis, have a gap wider than a quarter of their extent and each
+// side is thin along the axis (under half the gap: faces seen edge-on, not curved
+// patches), the node splits there and shares its leaves by count. A split by count alone cuts through
+// one face once a column of the part is narrower than it is thick, and leaves a
+// leaf holding points of both faces (its normals opposite, its patch untrusted, a
+// sphere spanning the part).
+void SphereTree::SplitAtGap(const PointCloud& cloud, int first, int count, int leaves, const Vec3& axis, int* split,
+                            int* left_leaves) const {
+  const double lo = cloud.positions[point_order_[first]].dot(axis);
+  const double hi = cloud.positions[point_order_[first + count - 1]].dot(axis);
+  double widest = 0.0;
+  int at = -1;
+  for (int k = first + 1; k < first + count; ++k) {
+    const double g = cloud.positions[point_order_[k]].dot(axis) - cloud.positions[point_order_[k - 1]].dot(axis);
+    if (g > widest) {
+      widest = g;
+      at = k - first;
+    }
+  }
+  if (at < 0 || !(widest > 0.25 * (hi - lo))) return;
+  // and each side thin along the axis (a face seen edge-on), not a curved patch
+  const double below = cloud.positions[point_order_[first + at - 1]].dot(axis) - lo;
+  const double above = hi - cloud.positions[point_order_[first + at]].dot(axis);
+  if (!(std::max(below, above) < 0.5 * widest)) return;
+  const int l = std::clamp(static_cast<int>(std::llround(static_cast<double>(leaves) * at / count)), 1, leaves - 1);
+  if (at < l || count - at < leaves - l) return;  // a leaf needs a point
+  *split = at;
+  *left_leaves = l;
+}
+
 int SphereTree::BuildNode(const PointCloud& cloud, int first, int count, int leaves, int parent, int depth) {
   const int index = static_cast<int>(nodes_.size());
   nodes_.emplace_back();
@@ -251,15 +282,17 @@ int SphereTree::BuildNode(const PointCloud& cloud, int first, int count, int lea
   // split along the principal axis so that each side gets its share of leaves
   Eigen::SelfAdjointEigenSolver<Mat3> eig(cov);
   const Vec3 axis = eig.eigenvectors().col(2);
-  const int left_leaves = leaves / 2;
-  const int right_leaves = leaves - left_leaves;
+  int left_leaves = leaves / 2;
   int split = static_cast<int>(std::llround(static_cast<double>(count) * left_leaves / leaves));
-  split = std::clamp(split, left_leaves, count - right_leaves);
+  split = std::clamp(split, left_leaves, count - (leaves - left_leaves));
   auto begin = point_order_.begin() + first;
-  std::nth_element(begin, begin + split, begin + count, [&](int a, int b) {
+  const auto along = [&](int a, int b) {
     const double pa = cloud.positions[a].dot(axis), pb = cloud.positions[b].dot(axis);
     return pa < pb || (pa == pb && a < b);
-  });
+  };
+  std::sort(begin, begin + count, along);
+  SplitAtGap(cloud, first, count, leaves, axis, &split, &left_leaves);
+  const int right_leaves = leaves - left_leaves;
   const int left = BuildNode(cloud, first, split, left_leaves, index, depth + 1);
   const int right = BuildNode(cloud, first + split, count - split, right_leaves, index, depth + 1);
   nodes_[index].child[0] = left;

@@ -137,6 +137,8 @@ class SphereTree {
 
  private:
   int BuildNode(const PointCloud& cloud, int first, int count, int leaves, int parent, int depth);
+  void SplitAtGap(const PointCloud& cloud, int first, int count, int leaves, const Vec3& axis, int* split,
+                  int* left_leaves) const;
 
   void SyncRadius(int i) { hot_[i].radius = nodes_[i].radius; }
   std::vector<TreeNode> nodes_;

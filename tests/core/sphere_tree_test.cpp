@@ -105,6 +105,28 @@ TEST(SphereTree, PaperBoxStructureAndCoverage) {
   CheckCoverage(g, shape, 40000);
 }
 
+// A thin slab (16 x 8 x 1 cm): once a column of it is narrower than it is thick, a
+// split by count alone cut through one face, and 77 of 3,000 leaves held points of
+// both faces (opposite normals, a sphere across the slab). Away from the side
+// faces every leaf now lies on one face.
+TEST(SphereTree, NoLeafOfAThinSlabHoldsBothFaces) {
+  ShapeDesc slab;
+  slab.type = EShape::Box;
+  slab.half_extents = Vec3(0.08, 0.04, 0.005);
+  const BodyGeometry g = MakeGeometry(slab, 24000, 3000);
+  CheckStructure(g, 3000);
+  int interior = 0;
+  for (int l = 0; l < g.tree.num_leaves(); ++l) {
+    const Vec3 c = g.tree.control_point(l);
+    if (std::abs(c.x()) > 0.075 || std::abs(c.y()) > 0.035) continue;  // leaves by a side face may bend
+    ++interior;
+    EXPECT_GT(g.tree.leaf_flatness(l), 0.9986) << "leaf " << l << " at " << c.transpose();
+    // a leaf holding both faces reaches at least half the thickness from its centre
+    EXPECT_LT(g.tree.node(g.tree.leaf_node(l)).rest_radius, 0.005) << "leaf " << l;
+  }
+  EXPECT_GT(interior, 2000);
+}
+
 TEST(SphereTree, ControlPointsLieOnTheSurface) {
   const ShapeDesc shape = test::FingertipEllipsoid();
   const BodyGeometry g = MakeGeometry(shape, 2400, 320);
