@@ -172,6 +172,7 @@ TEST(Validation, EveryMassTimesKLeavesTheStackUnchanged) {
 
 TEST(Validation, SlideAlongAFlatFaceGivesMuWithoutRipple) {
 #ifdef GRASPSIM_SANITIZED
+  // skipped under sanitizers only (minutes there); the release suite runs it
   GTEST_SKIP() << "four 0.9 s simulations of a 10,000-point box (minutes under sanitizers); the release build runs it";
 #endif
   const auto v = ValidateSlide(Quick());
