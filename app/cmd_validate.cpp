@@ -1,4 +1,5 @@
 // `graspsim validate NAME|all [--json] [--quick]`: physics with known answers.
+#include <algorithm>
 #include <cstdio>
 #include <memory>
 
@@ -6,6 +7,22 @@
 #include "app/validation.h"
 
 namespace gs::app {
+
+namespace {
+
+void PrintResult(const ValidationResult& r, bool json) {
+  if (json) {
+    std::string mode;
+    if (!r.contact_mode.empty()) mode = ",\"contact_mode\":\"" + r.contact_mode + "\"";
+    std::printf("{\"name\":\"%s\",\"error\":%.6g,\"tolerance\":%.6g,\"unit\":\"%s\",\"pass\":%s%s}\n",
+                r.name.c_str(), r.error, r.tolerance, r.unit.c_str(), r.pass ? "true" : "false", mode.c_str());
+  } else {
+    std::printf("%-16s %-4s error %.3g %s (tolerance %.3g)  %s\n", r.name.c_str(), r.pass ? "PASS" : "FAIL", r.error,
+                r.unit.c_str(), r.tolerance, r.detail.c_str());
+  }
+}
+
+}  // namespace
 
 void AddValidateCommand(CLI::App& app, int* exit_code) {
   struct Opt {
@@ -21,26 +38,26 @@ void AddValidateCommand(CLI::App& app, int* exit_code) {
   cmd->add_flag("--json", opt->json, "one JSON object per case: name, error, pass");
   cmd->add_flag("--quick", opt->v.quick, "shorter holds and coarser sampling");
   cmd->callback([opt, exit_code]() {
-    std::vector<ValidationResult> results;
-    if (!RunValidation(opt->name, opt->v, &results)) {
+    const std::vector<std::string> families = ValidationNames();
+    const bool known = opt->name == "all" || std::find(families.begin(), families.end(), opt->name) != families.end();
+    if (!known) {
       std::fprintf(stderr, "graspsim validate: unknown case '%s' (expected all", opt->name.c_str());
-      for (const std::string& n : ValidationNames()) std::fprintf(stderr, ", %s", n.c_str());
+      for (const std::string& n : families) std::fprintf(stderr, ", %s", n.c_str());
       std::fprintf(stderr, ")\n");
       *exit_code = kExitUsage;
       return;
     }
+    // family by family, each printed as soon as it is done (all takes minutes)
     bool all = true;
-    for (const ValidationResult& r : results) {
-      all &= r.pass;
-      if (opt->json) {
-        std::string mode;
-        if (!r.contact_mode.empty()) mode = ",\"contact_mode\":\"" + r.contact_mode + "\"";
-        std::printf("{\"name\":\"%s\",\"error\":%.6g,\"tolerance\":%.6g,\"unit\":\"%s\",\"pass\":%s%s}\n",
-                    r.name.c_str(), r.error, r.tolerance, r.unit.c_str(), r.pass ? "true" : "false", mode.c_str());
-      } else {
-        std::printf("%-16s %-4s error %.3g %s (tolerance %.3g)  %s\n", r.name.c_str(), r.pass ? "PASS" : "FAIL",
-                    r.error, r.unit.c_str(), r.tolerance, r.detail.c_str());
+    for (const std::string& family : families) {
+      if (opt->name != "all" && opt->name != family) continue;
+      std::vector<ValidationResult> results;
+      RunValidation(family, opt->v, &results);
+      for (const ValidationResult& r : results) {
+        all &= r.pass;
+        PrintResult(r, opt->json);
       }
+      std::fflush(stdout);
     }
     *exit_code = all ? kExitOk : kExitFailure;
   });
