@@ -570,9 +570,11 @@ PairGeometry FaceOnEdge(const Vec3& n_s, const Vec3& n_q) {
 
 // The contact normal of query leaf lq (Q) projected onto S near leaf ls, and the
 // shift from the foot to where the surfaces touch, in S's frame: the common normal
-// from both leaves' patches, or the foot's normal (no shift) when either leaf has
-// no patch or both are flat. A face's normal is the common normal whatever Q's
-// shape; a curved Q on it touches it at Q's lowest point, where the shift goes.
+// from both leaves' patches; a face's point (Q flat) against an edge or a flat
+// foot takes the face's normal (FaceOnEdge); the foot's normal (no shift) when a
+// curved Q's leaf or the foot's leaf has no patch. A face's normal is the common
+// normal whatever Q's shape; a curved Q on it touches it at Q's lowest point,
+// where the shift goes.
 PairGeometry PairNormal(const SphereTree& tq, int lq, const Pose& q_to_s, const SphereTree& ts, int ls,
                         const MlsProjection& proj) {
   const PairGeometry foot{proj.normal, Vec3::Zero()};

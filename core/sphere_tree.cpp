@@ -219,10 +219,10 @@ SphereTree::EBuildError SphereTree::Build(const PointCloud& cloud, const MlsPara
 // Two surfaces of a thin part (a slab's faces) in one node: when the points, sorted
 // along the split axis, have a gap wider than a quarter of their extent and each
 // side is thin along the axis (under half the gap: faces seen edge-on, not curved
-// patches), the node splits there and shares its leaves by count. A split by count alone cuts through
-// one face once a column of the part is narrower than it is thick, and leaves a
-// leaf holding points of both faces (its normals opposite, its patch untrusted, a
-// sphere spanning the part).
+// patches), the node splits there and shares its leaves by count. A split by
+// count alone cuts through one face once a column of the part is narrower than it
+// is thick, and leaves a leaf holding points of both faces (its normals opposite,
+// its patch untrusted, a sphere spanning the part).
 void SphereTree::SplitAtGap(const PointCloud& cloud, int first, int count, int leaves, const Vec3& axis, int* split,
                             int* left_leaves) const {
   const double lo = cloud.positions[point_order_[first]].dot(axis);
