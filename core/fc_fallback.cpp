@@ -19,7 +19,8 @@ std::string FcMethodResult::Summary() const {
   char buf[320];
   std::snprintf(buf, sizeof buf, "%s: NSGS %d sweeps%s (%.3f ms), Newton %d steps, %d factorisations (%.3f ms), error %.3e, %s",
                 FcMethodName(method), nsgs.iterations,
-                nsgs_resumed ? " (resumed after Newton)" : nsgs.stagnated ? " until stagnation" : "",
+                nsgs_resumed ? (newton_rerun ? " (resumed after Newton, stalled again)" : " (resumed after Newton)")
+                : nsgs.stagnated ? " until stagnation" : "",
                 1e3 * nsgs_seconds, newton.iterations, newton.factorizations, 1e3 * newton_seconds, error,
                 FcStopName(stop));
   return buf;
@@ -123,9 +124,25 @@ FcMethodResult SolveFcMethod(const FcProblem& p, EFcMethod method, const FcMetho
       out.error = nsgs_error;
     }
     if (out.stop == EFcStop::Outpaced && out.nsgs.iterations < params.max_sweeps && budget_left()) {
-      // NSGS was converging faster: it goes on from the better forces, to its cap
+      // NSGS was converging faster: it goes on from the better forces, under its
+      // stagnation rule again; stalled a second time, Newton finishes without a race
       out.nsgs_resumed = true;
-      RunNsgs(p, false, params.max_sweeps - out.nsgs.iterations, params, left(), r, &out);
+      RunNsgs(p, true, params.max_sweeps - out.nsgs.iterations, params, left(), r, &out);
+      if (!out.converged && out.nsgs.stagnated && budget_left()) {
+        const Eigen::VectorXd from_resumed = *r;
+        const double resumed_error = out.error;
+        const FcNewtonResult first = out.newton;
+        const double first_seconds = out.newton_seconds;
+        RunNewton(p, params, left(), 0.0, r, &out);
+        out.newton_rerun = true;
+        out.newton.iterations += first.iterations;
+        out.newton.factorizations += first.factorizations;
+        out.newton_seconds += first_seconds;
+        if (!(out.error < resumed_error)) {
+          *r = from_resumed;
+          out.error = resumed_error;
+        }
+      }
     }
   }
   if (out.converged && UnboundedForces(p, *r, params.tolerance)) {

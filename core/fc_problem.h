@@ -56,11 +56,13 @@ class SparseDelassus {
   std::vector<double> blocks_;
 };
 
-/// Solver choice for explicit problems: NSGS with extrapolation every 50 sweeps.
+/// Solver choice for explicit problems: NSGS with conjugate directions and
+/// extrapolation every 50 sweeps.
 struct FcSolveParams {
   NsgsParams nsgs = [] {
     NsgsParams p;
     p.extrapolate_every = 50;
+    p.conjugate = true;
     return p;
   }();
 };

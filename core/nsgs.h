@@ -104,6 +104,13 @@ struct NsgsParams {
   /// `stagnated` set, so that a second method can continue from the forces.
   int stagnation_window = 0;
   double stagnation_ratio = 0.5;
+  /// Nonsmooth nonlinear conjugate gradient on top of the sweeps (Silcowitz, Niebe
+  /// and Erleben 2010): after a sweep that leaves the forces unconverged, r moves on
+  /// by beta times the last direction, beta = |dr_k|^2 / |dr_{k-1}|^2 of the sweeps'
+  /// own changes, projected back on each cone; beta > 1 restarts the direction.
+  /// Each sweep's local solves stay exact; what the momentum adds is checked by the
+  /// same error measure. Costs two copies of r and one more pass over the contacts.
+  bool conjugate = false;
 };
 
 struct NsgsResult {
@@ -172,6 +179,7 @@ class NsgsBudget {
 struct NsgsScratch {
   std::vector<double> angle;  ///< per-contact slip angle hints
   std::vector<Vec3> r_old, r_base, r_best;        ///< extrapolation only
+  std::vector<Vec3> r_prev, direction;            ///< conjugate directions only
   std::vector<double> angle_base, angle_best;     ///< extrapolation only
   void Reserve(int n) { angle.reserve(n); }
 };
@@ -357,6 +365,28 @@ inline void SetErrors(NsgsResult* res, const NsgsErrors& e) {
   res->siconos_error = e.siconos;
 }
 
+// The conjugate step after a sweep (NsgsParams::conjugate): r_prev holds the forces
+// before the sweep, *last the previous sweep's |dr|^2 (0 before the first).
+template <class Op>
+void ConjugateStep(Op& op, Vec3* r, NsgsScratch& s, int n, double* last) {
+  double g2 = 0.0;
+  for (int c = 0; c < n; ++c) g2 += (r[c] - s.r_prev[c]).squaredNorm();
+  const double beta = *last > 0.0 ? g2 / *last : 0.0;
+  *last = g2;
+  if (!(beta <= 1.0) || beta == 0.0) {  // first sweep, or a restart
+    for (int c = 0; c < n; ++c) s.direction[c] = r[c] - s.r_prev[c];
+    return;
+  }
+  for (int c = 0; c < n; ++c) {
+    const Vec3 swept = r[c];
+    const Vec3 x = ProjectOntoCone(Vec3(swept + beta * s.direction[c]), op.Mu(c));
+    s.direction[c] = (swept - s.r_prev[c]) + beta * s.direction[c];
+    if (!x.allFinite()) continue;
+    op.ApplyDelta(c, x - swept);
+    r[c] = x;
+  }
+}
+
 template <class Op>
 NsgsResult SolveNsgs(Op& op, Vec3* r, const NsgsParams& p, NsgsScratch& s) {
   NsgsResult res;
@@ -373,12 +403,23 @@ NsgsResult SolveNsgs(Op& op, Vec3* r, const NsgsParams& p, NsgsScratch& s) {
   const NsgsBudget budget(p.time_budget_s);
   NsgsStagnation stagnation;
   int sweep = 0;  // plain sweeps
+  double last_change = 0.0;  // conjugate: the previous sweep's |dr|^2
+  if (p.conjugate) {
+    s.r_prev.resize(std::max(s.r_prev.size(), static_cast<size_t>(n)));
+    s.direction.resize(std::max(s.direction.size(), static_cast<size_t>(n)));
+  }
   while (res.iterations < p.max_iterations) {
     const bool backward = p.order == ESweepOrder::Alternating && (sweep & 1);
     NsgsSweepSums sums;
+    if (p.conjugate) std::copy(r, r + n, s.r_prev.begin());
     const NsgsErrors estimate = NsgsSweep(op, r, p, backward, nq, s.angle.data(), &sums);
     ++sweep;
     ++res.iterations;
+    // the momentum only on a sweep that will not be checked: a checked or bounded
+    // error is the error of the forces the sweep left
+    if (p.conjugate && estimate.stop > p.tolerance && res.iterations < p.max_iterations &&
+        !(K > 0 && sweep % K == 0))
+      ConjugateStep(op, r, s, n, &last_change);
     if (p.accept_error_bound && estimate.stop <= p.tolerance) {
       const NsgsErrors bound = NsgsErrorBound(sums, nq, p);
       if (bound.stop <= p.tolerance) {

@@ -44,7 +44,7 @@ TEST(FcFamilies, DeterministicInTheSeedAndValid) {
 
 TEST(Fallback, NsgsStallsOnAHeavyOnLightStackAndAutoSolvesIt) {
   // 4 boxes, the top one 1000 times as heavy as the bottom one: NSGS (with its
-  // extrapolation) is at ~1e-5 after 20,000 sweeps
+  // extrapolation and conjugate directions) is at 1.1e-6 after 5,000 sweeps
   const FcProblem p = MassRatioStackProblem(4, 1000.0, 1);
   FcMethodParams mp;
   mp.max_sweeps = 5000;
@@ -53,7 +53,7 @@ TEST(Fallback, NsgsStallsOnAHeavyOnLightStackAndAutoSolvesIt) {
   EXPECT_FALSE(nsgs.converged);
   EXPECT_EQ(nsgs.stop, EFcStop::IterationCap);
   EXPECT_EQ(nsgs.nsgs.iterations, 5000);
-  EXPECT_GT(FcError(p, r_nsgs), 5e-6);
+  EXPECT_GT(FcError(p, r_nsgs), 1e-6);
   const FcMethodResult aut = SolveFcMethod(p, EFcMethod::Auto, mp, &r_auto);
   EXPECT_TRUE(aut.converged) << aut.Summary();
   EXPECT_TRUE(aut.nsgs.stagnated);
@@ -102,7 +102,8 @@ TEST(Fallback, AutoEndsOnASolutionWhicheverMethodWinsTheRace) {
       EXPECT_TRUE(res.newton_ran) << res.Summary();
     }
     if (res.nsgs_resumed) {
-      EXPECT_EQ(res.newton.stop, EFcStop::Outpaced) << res.Summary();
+      // Newton lost the race, or won its second run after NSGS stalled again
+      EXPECT_TRUE(res.newton.stop == EFcStop::Outpaced || res.newton_rerun) << res.Summary();
       EXPECT_NE(res.Summary().find("resumed after Newton"), std::string::npos);
     }
   }

@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <random>
 
+#include "core/fc_families.h"
 #include "core/fc_problem.h"
 #include "core/local_solver.h"
 #include "core/nsgs.h"
@@ -72,6 +73,39 @@ TEST(Nsgs, ConvergesOnRandomRigidProblemsAndReportsTheTrueError) {
     wrong *= 1.5;
     EXPECT_GT(FcError(p, wrong), 1e-3);
   }
+}
+
+// Conjugate directions (NsgsParams::conjugate, on for explicit problems) on top of
+// the extrapolation reach the same tolerance in fewer sweeps on hyperstatic
+// problems, and the forces they return solve the problem by the exact measure.
+// Measured (sweeps, extrapolation alone -> with conjugate directions): random_rigid
+// 150 1,839 -> 1,053, pile_12 1,886 -> 914, stack_4_ratio10 2,226 -> 445,
+// gripped_48 624 -> 81.
+TEST(Nsgs, ConjugateDirectionsNeedFewerSweepsForTheSameError) {
+  int without = 0, with = 0;
+  for (const FcProblem& p : {RandomRigidProblem(150, 3, 1), PileProblem(12, 0.3, 1.0, 1),
+                             MassRatioStackProblem(4, 10, 1), GrippedBodyProblem(48, 1)}) {
+    FcSolveParams plain, conj;
+    plain.nsgs.conjugate = false;
+    ASSERT_TRUE(conj.nsgs.conjugate);
+    for (FcSolveParams* sp : {&plain, &conj}) {
+      sp->nsgs.tolerance = 1e-6;
+      sp->nsgs.max_iterations = 20000;
+    }
+    Eigen::VectorXd r_plain, r_conj;
+    const FcSolveResult a = SolveFcProblem(p, plain, &r_plain);
+    const FcSolveResult b = SolveFcProblem(p, conj, &r_conj);
+    ASSERT_TRUE(a.nsgs.converged);
+    ASSERT_TRUE(b.nsgs.converged);
+    EXPECT_LE(FcError(p, r_conj), 1e-6);
+    EXPECT_NEAR(b.nsgs.error, FcError(p, r_conj), 1e-15);
+    for (int c = 0; c < p.contacts; ++c)  // the momentum's forces are projected on their cones
+      EXPECT_LE(std::hypot(r_conj[3 * c + 1], r_conj[3 * c + 2]), p.mu[c] * r_conj[3 * c] * (1 + 1e-12) + 1e-300);
+    EXPECT_LT(b.nsgs.iterations, a.nsgs.iterations) << a.nsgs.iterations << " " << b.nsgs.iterations;
+    without += a.nsgs.iterations;
+    with += b.nsgs.iterations;
+  }
+  EXPECT_LT(with, 0.6 * without) << without << " " << with;
 }
 
 TEST(Nsgs, IterationCapIsReportedNotHidden) {
@@ -221,6 +255,7 @@ TEST(Nsgs, ExtrapolationConvergesWherePlainGaussSeidelDrifts) {
   // extrapolated one reaches it (about 12,000 sweeps)
   const FcProblem p = RandomRigidProblem(500, 4, 7);
   FcSolveParams sp;
+  sp.nsgs.conjugate = false;  // extrapolation against plain Gauss-Seidel alone
   ASSERT_GT(sp.nsgs.extrapolate_every, 0);  // the default for explicit problems
   sp.nsgs.tolerance = 1e-6;
   sp.nsgs.max_iterations = 15000;
@@ -252,6 +287,7 @@ TEST(Nsgs, ExtrapolationReducesSweepsOnSmallStacks) {
   for (int contacts : {50, 150}) {
     const FcProblem p = RandomRigidProblem(contacts, 4, 7);
     FcSolveParams sp;
+    sp.nsgs.conjugate = false;  // extrapolation against plain Gauss-Seidel alone
     sp.nsgs.max_iterations = 20000;
     Eigen::VectorXd r, r_plain;
     const FcSolveResult res = SolveFcProblem(p, sp, &r);
