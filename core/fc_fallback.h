@@ -3,8 +3,8 @@
 // NSGS until its stagnation rule fires (NsgsParams::stagnation_window), then
 // Newton from the NSGS forces, raced against the pace NSGS had: a Newton whose
 // error falls more slowly per second stops (Outpaced) and NSGS goes on from the
-// better forces under the rule again; stalled a second time, Newton finishes
-// without a race. Every stage has its cap, and the result says
+// better forces under the rule again; stalled again, Newton races its new pace
+// (up to 3 races, then NSGS without the rule to its cap). Every stage has its cap, and the result says
 // which one ended the solve (EFcStop). A result that meets the tolerance only
 // because the forces are huge (|r| mean(diag W) > 1e4 |q| while the error
 // relative to |q| alone exceeds it) is reported as Diverged, not converged:
@@ -44,8 +44,8 @@ struct FcMethodResult {
   /// auto: Newton was outpaced by NSGS's pace before the stagnation, and NSGS went on
   /// from the better forces (its sweeps and time are added to `nsgs`, `nsgs_seconds`)
   bool nsgs_resumed = false;
-  /// auto: the resumed NSGS stagnated again and Newton went on from its forces with
-  /// no race, to its cap (`newton` then counts both Newton runs)
+  /// auto: a resumed NSGS stagnated again and Newton raced it again from its forces
+  /// (`newton` then counts every Newton run)
   bool newton_rerun = false;
   double error = 0.0;                  ///< Siconos error of the returned forces
   bool converged = false;
