@@ -90,7 +90,7 @@ void AddSolveCommand(CLI::App& app, int* exit_code) {
   cmd->add_flag("--json", opt->json, "one JSON object: contacts, iterations, error, converged, time_ms");
   cmd->add_option("--tolerance", opt->tolerance, "on the Siconos error")->capture_default_str()->check(CLI::PositiveNumber);
   cmd->add_option("--solver", opt->solver,
-                  "nsgs; newton (proximal semi-smooth Newton, Alart-Curnier); auto (NSGS, then Newton when it stagnates)")
+                  "nsgs (Gauss-Seidel with conjugate directions); newton (proximal semi-smooth Newton, Alart-Curnier); auto (NSGS, then Newton when it stagnates)")
       ->capture_default_str()
       ->check(CLI::IsMember({"nsgs", "newton", "auto"}));
   cmd->add_option("--max-newton", opt->max_newton, "Newton step cap (LU factorisations)")
@@ -106,7 +106,7 @@ void AddSolveCommand(CLI::App& app, int* exit_code) {
   cmd->add_option("--over-relaxation", opt->over_relaxation, "omega in (0, 2)")->capture_default_str()->check(CLI::Range(0.01, 1.99));
   cmd->add_option("--order", opt->order, "sweep order")->capture_default_str()->check(CLI::IsMember({"forward", "alternating"}));
   cmd->add_option("--extrapolate-every", opt->extrapolate_every,
-                  "sweeps between extrapolation trials along the drift (0: plain NSGS)")
+                  "sweeps between extrapolation trials along the drift (0: none)")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
   cmd->callback([opt, exit_code]() { *exit_code = RunSolve(*opt); });

@@ -91,6 +91,25 @@ void RunNewton(const FcProblem& p, const FcMethodParams& params, double budget, 
   out->stop = out->newton.stop;
 }
 
+// auto, a resumed NSGS stalled again: Newton races its new pace from its forces,
+// counted with the earlier Newton runs; NSGS's forces stay when Newton ends no better
+void RaceNewtonAgain(const FcProblem& p, const FcMethodParams& params, double budget, Eigen::VectorXd* r,
+                     FcMethodResult* out) {
+  const Eigen::VectorXd from_nsgs = *r;
+  const double nsgs_error = out->error;
+  const FcNewtonResult before = out->newton;
+  const double before_seconds = out->newton_seconds;
+  RunNewton(p, params, budget, NsgsRate(*out, params), r, out);
+  out->newton_rerun = true;
+  out->newton.iterations += before.iterations;
+  out->newton.factorizations += before.factorizations;
+  out->newton_seconds += before_seconds;
+  if (!(out->error < nsgs_error)) {
+    *r = from_nsgs;
+    out->error = nsgs_error;
+  }
+}
+
 // True when r "solves" p only because |r| is huge: the relative error is small, but
 // |r| mean(diag W) exceeds 1e4 |q| and the error relative to |q| alone is not. An
 // infeasible problem (a body squeezed between two closing walls) gives this: the
@@ -135,19 +154,7 @@ FcMethodResult SolveFcMethod(const FcProblem& p, EFcMethod method, const FcMetho
       out.nsgs_resumed = true;
       RunNsgs(p, race < kRaces, params.max_sweeps - out.nsgs.iterations, params, left(), r, &out);
       if (out.converged || !out.nsgs.stagnated || !budget_left()) break;
-      const Eigen::VectorXd from_resumed = *r;
-      const double resumed_error = out.error;
-      const FcNewtonResult before = out.newton;
-      const double before_seconds = out.newton_seconds;
-      RunNewton(p, params, left(), NsgsRate(out, params), r, &out);
-      out.newton_rerun = true;
-      out.newton.iterations += before.iterations;
-      out.newton.factorizations += before.factorizations;
-      out.newton_seconds += before_seconds;
-      if (!(out.error < resumed_error)) {
-        *r = from_resumed;
-        out.error = resumed_error;
-      }
+      RaceNewtonAgain(p, params, left(), r, &out);
     }
     // Newton ended at its own cap (or its line search failed): NSGS goes on from the
     // best forces without the rule, to its cap, so that auto never ends short of

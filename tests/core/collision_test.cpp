@@ -697,7 +697,8 @@ TEST(Collision, CurvatureRejectionReadsTheCoupledLeafsBorder) {
   EXPECT_GT((p.point - na.center).norm(), 2.0 * (na.rest_radius + t.border()));
 }
 
-// measurement only (run with --gtest_also_run_disabled_tests): the fingertip/box and
+// measurement only, disabled because it asserts nothing (run with
+// --gtest_also_run_disabled_tests): the fingertip/box and
 // sphere/sphere agreement with the curvature rejection off, and with the paper's
 // bandwidth (centre distance, up to 3 h)
 TEST(Collision, DISABLED_MeasureRejectionAndBandwidth) {
@@ -734,8 +735,9 @@ TEST(Collision, DISABLED_MeasureRejectionAndBandwidth) {
                 variant, ag.contacts, ag.deep_points, ag.missed, ag.worst_gap_error, ag.over_5pct, ag.out_of_border, s);
   }
 }
-// measurement only: eq. 8 over the 6 nearest control points against all the
-// candidates (within 2.5 spacings), on the fingertip's displacement under a point load
+// measurement only, disabled because it asserts nothing (run with
+// --gtest_also_run_disabled_tests): eq. 8 over the 6 nearest control points against
+// all the candidates (within 2.5 spacings), on the fingertip's displacement under a point load
 TEST(Collision, DISABLED_MeasureEq8Truncation) {
   auto ft = Make(test::FingertipEllipsoid(), 2400, 320, 2);
   DeformationParams dp;

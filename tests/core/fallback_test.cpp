@@ -128,6 +128,22 @@ TEST(Newton, ARivalFasterThanAnyNewtonStopsItAfterItsGraceWithItsBestForces) {
   EXPECT_LE(FcError(p, r), 1e-6);
 }
 
+// auto never ends short of where NSGS alone would go: a Newton stage that stops at
+// its own cap hands the forces back to NSGS, which goes on without its rule
+TEST(Fallback, AutoGoesOnWithNsgsWhenNewtonEndsAtItsCap) {
+  const FcProblem p = RandomRigidProblem(150, 3, 1);
+  FcMethodParams mp;
+  mp.stagnation_window = 20;     // a rule that fires on any problem: 100x per 20 sweeps
+  mp.stagnation_ratio = 0.01;
+  mp.max_newton = 1;             // and a Newton stage that cannot finish
+  Eigen::VectorXd r;
+  const FcMethodResult res = SolveFcMethod(p, EFcMethod::Auto, mp, &r);
+  EXPECT_TRUE(res.newton_ran) << res.Summary();
+  EXPECT_TRUE(res.nsgs_resumed) << res.Summary();
+  EXPECT_TRUE(res.converged) << res.Summary();
+  EXPECT_LE(FcError(p, r), 1e-6) << res.Summary();
+}
+
 TEST(Fallback, EachCapSaysWhichCapEndedTheSolve) {
   const FcProblem p = GrippedBodyProblem(24, 2);
   FcMethodParams mp;
