@@ -1,9 +1,9 @@
 // `graspsim bench NAME [--json] [--quick]`: benchmarks that print figures.
 #include <memory>
 
-#include "app/bench.h"
+#include "bench/bench.h"
 #include "app/commands.h"
-#include "app/tradeoff.h"
+#include "bench/tradeoff.h"
 
 namespace gs::app {
 

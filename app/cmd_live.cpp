@@ -5,10 +5,10 @@
 #include <memory>
 
 #include "app/commands.h"
-#include "app/live_loop.h"
-#include "app/paths.h"
-#include "app/render_options.h"
-#include "app/tracker_app.h"
+#include "session/live_loop.h"
+#include "scene/paths.h"
+#include "session/frame_recorder.h"
+#include "session/tracker_app.h"
 
 namespace gs::app {
 namespace {

@@ -8,7 +8,7 @@
 #include <thread>
 
 #include "app/commands.h"
-#include "app/tracker_app.h"
+#include "session/tracker_app.h"
 #include "tracking/session_log.h"
 
 namespace gs::app {

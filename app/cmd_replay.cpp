@@ -13,11 +13,11 @@
 #include <thread>
 
 #include "app/commands.h"
-#include "app/paths.h"
-#include "app/render_options.h"
-#include "app/tracked_sim.h"
-#include "app/run_report.h"
-#include "app/tracker_app.h"
+#include "scene/paths.h"
+#include "session/frame_recorder.h"
+#include "session/tracked_sim.h"
+#include "session/run_report.h"
+#include "session/tracker_app.h"
 #include "tracking/session_log.h"
 
 namespace gs::app {

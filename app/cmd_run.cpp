@@ -7,11 +7,11 @@
 #include <sstream>
 
 #include "app/commands.h"
-#include "app/fclib_io.h"
-#include "app/paths.h"
-#include "app/render_options.h"
-#include "app/run_report.h"
-#include "app/scene_file.h"
+#include "fclib/fclib_io.h"
+#include "scene/paths.h"
+#include "session/frame_recorder.h"
+#include "session/run_report.h"
+#include "scene/scene_file.h"
 
 namespace gs::app {
 namespace {

@@ -6,7 +6,7 @@
 #include <memory>
 
 #include "app/commands.h"
-#include "app/scene_file.h"
+#include "scene/scene_file.h"
 
 namespace gs::app {
 

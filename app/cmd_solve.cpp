@@ -7,7 +7,7 @@
 #include <memory>
 
 #include "app/commands.h"
-#include "app/fclib_io.h"
+#include "fclib/fclib_io.h"
 #include "core/fc_fallback.h"
 
 namespace gs::app {

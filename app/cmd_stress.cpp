@@ -1,10 +1,10 @@
 // `graspsim stress [--json] [--quick] [--case TEXT]`: the numerical stress matrix
-// (app/stress.h). Exit code 0 when every case passes, 1 otherwise.
+// (validate/stress.h). Exit code 0 when every case passes, 1 otherwise.
 #include <cstdio>
 #include <memory>
 
 #include "app/commands.h"
-#include "app/stress.h"
+#include "validate/stress.h"
 
 namespace gs::app {
 

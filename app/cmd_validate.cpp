@@ -4,7 +4,7 @@
 #include <memory>
 
 #include "app/commands.h"
-#include "app/validation.h"
+#include "validate/validation.h"
 
 namespace gs::app {
 

@@ -4,28 +4,24 @@
 
 #include <CLI/CLI.hpp>
 
+#include "scene/exit_code.h"
+
 namespace gs::app {
 
-/// Exit codes shared by every subcommand.
-enum ExitCode : int {
-  kExitOk = 0,
-  kExitFailure = 1,     ///< the command ran and something failed (a validation case, a bench target)
-  kExitUsage = 2,       ///< bad command line
-  kExitBadInput = 3,    ///< a scene, mesh, log or problem file was refused
-  kExitInterrupted = 130,
-};
+struct RenderOptions;
 
 void AddRunCommand(CLI::App& app, int* exit_code);
 void AddBenchCommand(CLI::App& app, int* exit_code);
 void AddValidateCommand(CLI::App& app, int* exit_code);
 void AddSceneCommand(CLI::App& app, int* exit_code);
 void AddSolveCommand(CLI::App& app, int* exit_code);
-// tracking (issue 4)
 void AddRecordCommand(CLI::App& app, int* exit_code);
 void AddSendCommand(CLI::App& app, int* exit_code);
 void AddReplayCommand(CLI::App& app, int* exit_code);
 void AddLiveCommand(CLI::App& app, int* exit_code);
-// stress and scaling (issue 6)
 void AddStressCommand(CLI::App& app, int* exit_code);
+
+/// --frames, --video, --size, --fps, --force-scale, --arrows, --no-hud (run, replay, live).
+void AddRenderOptions(CLI::App* cmd, RenderOptions* opt);
 
 }  // namespace gs::app

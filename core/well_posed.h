@@ -3,7 +3,7 @@
 // a world that would step into NaN (a free body of zero mass: its free motion
 // solves 0 * dq = m g) is refused before its first step instead of having every
 // step rejected. The scene loader reports the same conditions with a file,
-// line and column (app/scene_file.cpp); this is the backstop for worlds built
+// line and column (scene/scene_file.cpp); this is the backstop for worlds built
 // in code and for what the file cannot see (a mesh body's inertia).
 #pragma once
 

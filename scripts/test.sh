@@ -40,7 +40,7 @@ for preset in $presets; do
   elif [ "$preset" = asan ]; then
     # the engine (core: no I/O, every index and buffer of the step) under ASan; the
     # parsers of outside input are the fuzz targets' ASan+UBSan builds (release stage),
-    # and the commands' threads are the tsan stage's. A sanitized build of all of app/
+    # and the commands' threads are the tsan stage's. A sanitized build of every library above core
     # and render/ as well took CI past its time. The long scale checks (minutes of
     # simulation each under ASan) run in the release build only.
     scripts/build.sh asan --target core_tests

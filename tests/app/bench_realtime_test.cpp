@@ -78,7 +78,7 @@ TEST(BenchRealtime, TwoSecondsGiveConsistentCounts) {
   EXPECT_EQ(JsonField(last, "no_render_missed_own_work"), JsonField(without, "missed_own_work"));
   EXPECT_EQ(JsonField(last, "budget_stops"), JsonField(with, "budget_stops"));
   EXPECT_EQ(JsonField(last, "step_budget"), 0.8);
-  EXPECT_EQ(JsonField(last, "lead_steps"), 1);  // live's default (app/pacing.h StepSchedule)
+  EXPECT_EQ(JsonField(last, "lead_steps"), 1);  // live's default (session/pacing.h StepSchedule)
   // the hypervisor's steal time on the loop's core, read from /proc/stat (a count, never negative there)
   if (FILE* stat = std::fopen("/proc/stat", "r")) {
     std::fclose(stat);

@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-#include "app/siconos_ref.h"
+#include "bench/siconos_ref.h"
 #include "json_lines.h"
 
 namespace gs::app {

@@ -1,4 +1,4 @@
-#include "app/fclib_io.h"
+#include "fclib/fclib_io.h"
 
 #include <gtest/gtest.h>
 #include <hdf5.h>

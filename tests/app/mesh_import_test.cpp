@@ -1,4 +1,4 @@
-#include "app/mesh_import.h"
+#include "scene/mesh_import.h"
 
 #include <gtest/gtest.h>
 

@@ -1,7 +1,7 @@
-// app/pacing.*: what the simulation loop asks of the OS is granted or said,
+// session/pacing.*: what the simulation loop asks of the OS is granted or said,
 // never dropped in silence, and the wait ends at its deadline. Each case runs on
 // a thread of its own so that the test process keeps normal scheduling.
-#include "app/pacing.h"
+#include "session/pacing.h"
 
 #include <gtest/gtest.h>
 #include <pthread.h>

@@ -1,4 +1,4 @@
-// One set of load-time checks for every command (BuildScene, app/scene_checks.h):
+// One set of load-time checks for every command (BuildScene, scene/scene_checks.h):
 // `scene check`, `run`, `replay` and `live` refuse the same scenes with the same
 // FILE:LINE:COLUMN message and exit code 3; the two-box stack at a 0.1 s step is
 // refused before its first step and the time step it suggests is accepted; a body

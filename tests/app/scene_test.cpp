@@ -1,4 +1,4 @@
-#include "app/scene_file.h"
+#include "scene/scene_file.h"
 
 #include <gtest/gtest.h>
 

@@ -6,10 +6,10 @@
 #include <cstring>
 #include <string>
 
-#include "app/siconos_ref.h"
+#include "bench/siconos_ref.h"
 #include "core/fc_problem.h"
 #ifdef GRASPSIM_HAVE_FCLIB
-#include "app/fclib_io.h"
+#include "fclib/fclib_io.h"
 #endif
 
 namespace gs::app {

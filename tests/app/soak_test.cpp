@@ -1,7 +1,7 @@
 // The soak run in a shortened form (`graspsim bench soak` runs a million steps):
 // a looped tracker session holding the box, 20,000 steps. Memory stays flat
 // after warm-up, nothing turns NaN, and the box stays in the hand without creeping.
-#include "app/soak.h"
+#include "bench/soak.h"
 
 #include <gtest/gtest.h>
 

@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-#include "app/fclib_io.h"
+#include "fclib/fclib_io.h"
 #include "core/fc_families.h"
 
 #ifdef GRASPSIM_HAVE_FCLIB

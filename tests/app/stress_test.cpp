@@ -1,7 +1,7 @@
-// The stress matrix (app/stress.h) in its shortened form: every case passes or
+// The stress matrix (validate/stress.h) in its shortened form: every case passes or
 // is refused up front for the stated reason. Under sanitizers the test-only
 // `tiny` form runs (shorter, coarser), so that the suite stays fast.
-#include "app/stress.h"
+#include "validate/stress.h"
 
 #include <gtest/gtest.h>
 #include <sys/wait.h>
@@ -11,7 +11,7 @@
 #include <filesystem>
 #include <fstream>
 
-#include "app/scene_checks.h"
+#include "scene/scene_checks.h"
 
 namespace gs::app {
 namespace {

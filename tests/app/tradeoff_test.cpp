@@ -1,7 +1,7 @@
 // `graspsim bench tradeoff`: the Pareto marking, the shortened sweeps (each
 // knob moves its error the way it must), and the CSV/PNG output and its errors.
 // Times are not checked: they are the benchmark's figures, not test results.
-#include "app/tradeoff.h"
+#include "bench/tradeoff.h"
 
 #include <gtest/gtest.h>
 #include <sys/wait.h>

@@ -1,7 +1,7 @@
 // The validation scenes of `graspsim validate`, in their quick form (release: a few
 // seconds each). Each asserts the physical pass criterion of its case, and the figures
 // behind it, so that a regression names what broke.
-#include "app/validation.h"
+#include "validate/validation.h"
 
 #include <gtest/gtest.h>
 

@@ -15,7 +15,7 @@
 #include <string>
 #include <vector>
 
-#include "app/fclib_io.h"
+#include "fclib/fclib_io.h"
 
 namespace {
 

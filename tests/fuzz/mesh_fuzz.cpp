@@ -10,7 +10,7 @@
 #include <fstream>
 #include <string>
 
-#include "app/mesh_import.h"
+#include "scene/mesh_import.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size < 1) return 0;

@@ -7,7 +7,7 @@
 #include <cstdlib>
 #include <string>
 
-#include "app/scene_file.h"
+#include "scene/scene_file.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::string text(reinterpret_cast<const char*>(data), size);

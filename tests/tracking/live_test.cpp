@@ -71,7 +71,7 @@ TEST(Live, ReceivesSendOnLoopbackAtTheRateSentAndHoldsItsRate) {
   EXPECT_LE(JsonNumber(json, "budget_stops"), JsonNumber(json, "unconverged_steps")) << r.output;
   EXPECT_LE(JsonNumber(json, "unconverged_steps"), JsonNumber(json, "steps")) << r.output;
   EXPECT_TRUE(std::isfinite(JsonNumber(json, "residual_max"))) << r.output;
-  EXPECT_EQ(JsonNumber(json, "lead_steps"), 1) << r.output;  // a step may begin one timestep early (app/pacing.h)
+  EXPECT_EQ(JsonNumber(json, "lead_steps"), 1) << r.output;  // a step may begin one timestep early (session/pacing.h)
 
   // what was published: poses and contacts at about 50 Hz each
   lcm::LogFile log(dir + "/live.lcmlog", "r");

@@ -1,7 +1,7 @@
 // The scene file's tracker section: what it reads and what it refuses.
 #include <gtest/gtest.h>
 
-#include "app/scene_file.h"
+#include "scene/scene_file.h"
 
 namespace gs::app {
 namespace {

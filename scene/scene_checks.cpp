@@ -1,0 +1,169 @@
+#include "scene/scene_checks.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+
+namespace gs::app {
+namespace {
+
+constexpr double kNever = std::numeric_limits<double>::infinity();
+
+// smallest leaf radius of a body's tree (m); 0 for a plane
+double SmallestLeaf(const Body& b) {
+  if (b.geometry.is_plane) return 0.0;
+  const SphereTree& t = b.geometry.tree;
+  double r = 1e300;
+  for (int l = 0; l < t.num_leaves(); ++l) r = std::min(r, t.node(t.leaf_node(l)).rest_radius);
+  return r;
+}
+
+// how far body b moves in one step of dt from its initial velocity, falling under g:
+// (M/dt^2 + B/dt) d = m g for the fall (free motion, inertial or quasi-static)
+double StepTravel(const Body& b, double dt, double g) {
+  const bool inertial = b.dynamics == EDynamics::Inertial;
+  const double a = (inertial ? b.mass / (dt * dt) : 0.0) + b.linear_damping / dt;
+  const double fall = a > 0.0 ? b.mass * g / a : 0.0;
+  return fall + (inertial ? b.velocity.norm() * dt : 0.0);
+}
+
+// x rounded down to two significant digits (a suggested limit that holds as printed)
+double RoundDown(double x) {
+  if (!(x > 0.0) || !std::isfinite(x)) return x;
+  const double unit = std::pow(10.0, std::floor(std::log10(x)) - 1.0);
+  return std::floor(x / unit * (1.0 + 1e-12)) * unit;
+}
+
+bool Checked(const Body& b) { return b.motion == EMotion::Free && !b.geometry.is_plane && b.mass > 0.0; }
+
+// the farthest a body may move in one step: half its smallest leaf, and no farther
+// than the thinnest other body reaches from its centre (its core radius, the depth
+// at which a pass-through is caught); `thinnest` is -1 when the leaf is the bound
+struct TravelLimit {
+  double travel = 0.0;
+  int thinnest = -1;
+};
+
+TravelLimit AllowedTravel(const World& w, size_t i) {
+  TravelLimit t{0.5 * SmallestLeaf(w.bodies[i]), -1};
+  for (size_t j = 0; j < w.bodies.size(); ++j) {
+    const Body& o = w.bodies[j];
+    if (j == i || o.geometry.is_plane || !(o.core_radius > 0.0) || !(o.core_radius < t.travel)) continue;
+    t = {o.core_radius, static_cast<int>(j)};
+  }
+  return t;
+}
+
+// g dt^2 + v dt = travel for an inertial body (the damping only slows the fall),
+// m g dt / B = travel for a quasi-static one
+double LongestStep(const Body& b, double g, double travel) {
+  const double v = b.velocity.norm();
+  if (b.dynamics == EDynamics::QuasiStatic)
+    return b.mass * g > 0.0 && b.linear_damping > 0.0 ? travel * b.linear_damping / (b.mass * g) : kNever;
+  if (g > 0.0) return (std::sqrt(v * v + 4.0 * g * travel) - v) / (2.0 * g);
+  return v > 0.0 ? travel / v : kNever;
+}
+
+std::string TimeStepMessage(const World& w, int i, const TravelLimit& limit, double longest) {
+  const Body& b = w.bodies[i];
+  const double dt = w.params.dt, travel = StepTravel(b, dt, w.params.gravity.norm());
+  char msg[700];
+  if (limit.thinnest < 0)
+    std::snprintf(msg, sizeof msg,
+                  "time step %g s is too long: body '%s' moves %.3g mm in one step (falling from %.3g m/s), more than "
+                  "half its smallest sphere-tree leaf (radius %.3g mm); contacts would be found too deep to resolve "
+                  "and it can tunnel through other bodies. Use timestep_s <= %.2g s, or fewer control points (larger "
+                  "leaves)",
+                  dt, b.name.c_str(), 1e3 * travel, b.velocity.norm(), 2e3 * limit.travel, RoundDown(longest));
+  else
+    std::snprintf(msg, sizeof msg,
+                  "time step %g s is too long: body '%s' moves %.3g mm in one step (falling from %.3g m/s), more than "
+                  "body '%s' reaches from its centre (%.3g mm): it can pass through it in one step. Use timestep_s "
+                  "<= %.2g s",
+                  dt, b.name.c_str(), 1e3 * travel, b.velocity.norm(), w.bodies[limit.thinnest].name.c_str(),
+                  1e3 * limit.travel, RoundDown(longest));
+  return msg;
+}
+
+void TimeStep(const World& w, std::vector<IllPosed>* out) {
+  const double dt = w.params.dt, g = w.params.gravity.norm();
+  int worst = -1;
+  double longest = kNever;
+  TravelLimit worst_limit;
+  for (size_t i = 0; i < w.bodies.size(); ++i) {
+    const Body& b = w.bodies[i];
+    if (!Checked(b)) continue;
+    const TravelLimit limit = AllowedTravel(w, i);
+    if (!(StepTravel(b, dt, g) > limit.travel)) continue;
+    const double t = LongestStep(b, g, limit.travel);
+    if (worst < 0 || t < longest) worst = static_cast<int>(i), longest = t, worst_limit = limit;
+  }
+  if (worst >= 0) out->push_back({IllPosed::ESite::TimeStep, worst, -1, TimeStepMessage(w, worst, worst_limit, longest)});
+}
+
+// the deepest starting overlap of two point-based bodies (m)
+double DeepestOverlap(const World& w, int i, int j, CollisionScratch* scratch, ContactBuffer* contacts) {
+  const Body& a = w.bodies[i];
+  const Body& b = w.bodies[j];
+  const CollisionShape sa = a.Shape(), sb = b.Shape();
+  if (!RootsOverlap(sa, a.pose, sb, b.pose, w.params.collision.contact_threshold)) return 0.0;
+  contacts->Clear();
+  CollisionStats stats;
+  CollidePair(i, sa, a.pose, j, sb, b.pose, w.params.collision, scratch, contacts, &stats);
+  double deepest = 0.0;
+  for (const Contact& c : contacts->items) deepest = std::max(deepest, -c.gap);
+  return deepest;
+}
+
+void Overlaps(const World& w, std::vector<IllPosed>* out) {
+  const int n = static_cast<int>(w.bodies.size());
+  CollisionScratch scratch;
+  int max_leaves = 1;
+  for (const Body& b : w.bodies) max_leaves = std::max(max_leaves, b.geometry.is_plane ? 0 : b.geometry.tree.num_leaves());
+  scratch.Reserve(max_leaves, 65536);
+  ContactBuffer contacts;
+  contacts.Reserve(65536);
+  for (int i = 0; i < n; ++i) {
+    const Body& a = w.bodies[i];
+    if (a.geometry.is_plane) continue;
+    for (int j = i + 1; j < n; ++j) {
+      const Body& b = w.bodies[j];
+      if (b.geometry.is_plane || (a.articulation < 0 && b.articulation < 0)) continue;
+      if (a.finger >= 0 && a.finger == b.finger) continue;
+      // contacts too deep to project are not found: the core balls (Body::core_radius)
+      // give a lower bound of the overlap that holds however deep it is
+      const double cores = a.core_radius > 0.0 && b.core_radius > 0.0
+                               ? a.core_radius + b.core_radius - (a.pose.t - b.pose.t).norm()
+                               : 0.0;
+      const double deepest = std::max(cores, DeepestOverlap(w, i, j, &scratch, &contacts));
+      const double leaf = std::min(SmallestLeaf(a), SmallestLeaf(b));
+      if (!(deepest > leaf)) continue;
+      char msg[640];
+      std::snprintf(msg, sizeof msg,
+                    "bodies '%s' and '%s' start overlapping by %.3g mm, deeper than their smallest sphere-tree leaf "
+                    "(radius %.3g mm): such contacts can be projected onto the wrong side of the surface. Move them "
+                    "at least %.3g mm apart (an overlap of at most %.3g mm is resolved)",
+                    a.name.c_str(), b.name.c_str(), 1e3 * deepest, 1e3 * leaf, 1e3 * (deepest - leaf), 1e3 * leaf);
+      out->push_back({IllPosed::ESite::Overlap, i, j, msg});
+    }
+  }
+}
+
+}  // namespace
+
+double LongestTimeStep(const Body& b, double g) { return LongestStep(b, g, 0.5 * SmallestLeaf(b)); }
+
+std::vector<IllPosed> FindIllPosed(const World& w) {
+  std::vector<IllPosed> out;
+  TimeStep(w, &out);
+  Overlaps(w, &out);
+  return out;
+}
+
+std::string IllPosedReason(const World& w) {
+  const std::vector<IllPosed> all = FindIllPosed(w);
+  return all.empty() ? "" : all.front().message;
+}
+
+}  // namespace gs::app

@@ -1,0 +1,111 @@
+// Scene files (YAML, SI units): parsing with validation, and building the World
+// and its script from them. The format is documented in docs/scene-format.md.
+#pragma once
+
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "scene/script.h"
+#include "scene/yaml_strict.h"
+#include "core/world.h"
+#include "tracking/tracker_config.h"
+
+namespace gs::app {
+
+struct SceneBody {
+  BodySpec spec;           ///< everything but the mesh, which is imported at build time
+  std::string mesh_file;   ///< resolved path when the shape is a mesh
+  double mesh_scale = 1.0;
+  bool has_drive = false;
+  SceneError bandwidth_at;  ///< where kernel_bandwidth_m was given (checked against the spacing at build)
+  SceneError at;            ///< the body's (or fingertip's) mapping
+  SceneError position_at;   ///< its position_m (the mapping when not given; a fingertip's: its finger's joints)
+  SceneError shape_at;      ///< its shape (a mesh's: the file key)
+};
+
+struct SceneFinger {
+  std::string name;
+  FingerModel model;
+  Vec4 joints = Vec4::Zero();
+  double motor_stiffness = 1.0, motor_damping = 0.0, joint_damping = 0.0;
+  SceneBody tip;
+};
+
+struct SceneKeyframe {
+  double time = 0.0;
+  bool has_hand = false;
+  Vec3 hand_position = Vec3::Zero();
+  std::map<std::string, Vec4> joints;           ///< per finger
+  std::map<std::string, Vec3> tip_targets;      ///< per finger, hand frame (inverse kinematics)
+  std::map<std::string, Pose> body_targets;     ///< per body
+  std::map<std::string, SceneError> tip_target_at;  ///< where each fingertip target was given
+};
+
+/// The scene's optional `camera:` section (docs/render.md); what is not given comes
+/// from the default framing of the hand and the objects.
+struct SceneCamera {
+  bool has_position = false, has_target = false;
+  Vec3 position = Vec3::Zero(), target = Vec3::Zero();  ///< m, world
+  Vec3 up = Vec3::UnitZ();
+  double fov_deg = 35.0;  ///< vertical
+};
+
+struct Scene {
+  std::string file, name, description;
+  SceneError timestep_at;  ///< where timestep_s was given
+  WorldParams params;
+  double duration = 1.0;
+  std::vector<SceneBody> bodies;
+  Pose hand_pose;
+  std::vector<SceneFinger> fingers;
+  struct Pair {
+    std::string a, b;
+    double mu;
+  };
+  std::vector<Pair> friction_pairs;
+  std::vector<SceneKeyframe> script;
+  bool has_tracker = false;          ///< a `tracker:` section (docs/tracking.md)
+  tracking::TrackerConfig tracker;
+  bool has_camera = false;           ///< a `camera:` section (docs/render.md)
+  SceneCamera camera;
+};
+
+/// Parses and validates a scene; false with every error found.
+bool LoadScene(const std::string& path, Scene* out, std::vector<SceneError>* errors);
+bool LoadSceneFromString(const std::string& text, const std::string& virtual_path, Scene* out,
+                         std::vector<SceneError>* errors);
+
+/// A scene made ready to step.
+struct BuiltScene {
+  std::string name;
+  double duration = 1.0;
+  World world;
+  ScriptPlayer script;
+  int tracked_body = -1;  ///< the first free body that is not a fingertip (reported in summaries)
+  bool has_tracker = false;
+  tracking::TrackerConfig tracker;  ///< with the fingertips' body indices resolved
+  bool has_camera = false;
+  SceneCamera camera;
+};
+
+/// The `camera:` section (session/frame_recorder.cpp).
+void ReadCameraSection(const YAML::Node& node, const std::string& file, Scene* s, std::vector<SceneError>* errors);
+
+/// The `tracker:` section (scene/scene_tracker.cpp); reads after the bodies.
+void ReadTrackerSection(const YAML::Node& node, const std::string& file, Scene* s, std::vector<SceneError>* errors);
+/// Resolves the tracked fingertips' body indices in a built world.
+bool ResolveTracker(World& w, tracking::TrackerConfig* c, std::string* error);
+
+/// Imports meshes, samples every surface, builds trees, fingers and the script, and
+/// checks what the file alone cannot show (scene/scene_checks.h, docs/scene-format.md
+/// "Checks when the scene is built"): false with every error found, each at the
+/// file, line and column it comes from. Every command that loads a scene calls it.
+bool BuildScene(const Scene& scene, BuiltScene* out, std::vector<SceneError>* errors);
+/// The same, errors formatted one per line.
+bool BuildScene(const Scene& scene, BuiltScene* out, std::string* error);
+/// LoadScene + BuildScene, errors formatted one per line.
+bool LoadAndBuildScene(const std::string& path, BuiltScene* out, std::string* error);
+
+}  // namespace gs::app
