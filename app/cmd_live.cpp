@@ -75,7 +75,6 @@ int Live(const LiveCmd& c) {
     std::fprintf(stderr, "live: %s\n", error.c_str());
     return kExitUsage;
   }
-  InstallStopSignals();
   LiveStats st;
   if (!RunLive(*sim, o, &st, &error, &recorder)) {
     std::fprintf(stderr, "live: %s\n", error.c_str());

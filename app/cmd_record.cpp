@@ -33,7 +33,6 @@ int Record(const RecordOptions& opt) {
     std::fprintf(stderr, "record: %s\n", error.c_str());
     return kExitBadInput;
   }
-  InstallStopSignals();
   // the receiver thread writes each datagram as it arrives and parses it for the error counts
   std::mutex mu;
   tracking::DTrackParser parser;

@@ -39,13 +39,37 @@ void Row(std::ostream& o, double v) {
   o << buf;
 }
 
-void ProgressBar(double fraction, double t, double total) {
-  const int width = 40;
-  const int filled = static_cast<int>(fraction * width);
-  std::printf("\r  [%s%s] %5.1f%%  t=%.2f/%.2f s", std::string(filled, '#').c_str(),
-              std::string(width - filled, '.').c_str(), 100.0 * fraction, t, total);
-  std::fflush(stdout);
-}
+// The output files of --out, written as the replay goes (an interrupted replay
+// keeps every row it made); without --out the streams discard what they get.
+struct ReplayFiles {
+  std::unique_ptr<std::ostream> traj, tips, frames;
+  bool Open(const std::string& dir, std::string* error) {
+    auto open = [&](const char* name) -> std::unique_ptr<std::ostream> {
+      if (dir.empty()) return std::make_unique<std::ostream>(nullptr);
+      return std::make_unique<std::ofstream>(std::filesystem::path(dir) / name, std::ios::binary);
+    };
+    traj = open("trajectory.csv");
+    tips = open("fingertips.csv");
+    frames = open("tracker.csv");
+    if (!dir.empty() && (!*traj || !*tips || !*frames)) {
+      *error = "--out " + dir + ": cannot write trajectory.csv, fingertips.csv and tracker.csv there";
+      return false;
+    }
+    return true;
+  }
+  bool Close(const std::string& dir, std::string* error) {
+    if (dir.empty()) return true;
+    for (auto* f : {traj.get(), tips.get(), frames.get()}) {
+      auto* file = static_cast<std::ofstream*>(f);
+      file->close();
+      if (file->fail()) {
+        *error = "--out " + dir + ": cannot write trajectory.csv, fingertips.csv or tracker.csv";
+        return false;
+      }
+    }
+    return true;
+  }
+};
 
 int Replay(const ReplayOptions& opt) {
   std::string scene_path = "config/tracked_hand.yaml", log_path;
@@ -59,6 +83,11 @@ int Replay(const ReplayOptions& opt) {
     return kExitUsage;
   }
   std::string error;
+  // the outputs are checked before any work
+  if (!CheckRenderOptions(opt.render, &error) || (!opt.out.empty() && !CheckOutputFolder("--out", opt.out, &error))) {
+    std::fprintf(stderr, "replay: %s\n", error.c_str());
+    return kExitUsage;
+  }
   // a first pass finds the session's span; the replay then streams the log
   tracking::SessionSummary summary;
   if (!tracking::ScanSession(log_path, &summary, &error)) {
@@ -94,14 +123,20 @@ int Replay(const ReplayOptions& opt) {
   const double span = 1e-6 * static_cast<double>(summary.last_monotonic_utime - summary.first_monotonic_utime);
   const double duration = opt.duration > 0 ? opt.duration : span + opt.tail;
   const int64_t steps = static_cast<int64_t>(std::ceil(duration / dt - 1e-9));
-  InstallStopSignals();  // before the header line: who saw it can stop the replay with SIGINT or SIGTERM
   std::printf("replay: %s in scene %s: %zu datagrams over %.3f s; simulating %.3f s (%lld steps)\n", log_path.c_str(),
               sim->scene().name.c_str(), static_cast<size_t>(summary.datagrams), span, duration,
               static_cast<long long>(steps));
   std::fflush(stdout);
 
   // outputs: everything deterministic (no wall times)
-  std::ostringstream traj, tips, frames;
+  ReplayFiles files;
+  if (!files.Open(opt.out, &error)) {
+    std::fprintf(stderr, "replay: %s\n", error.c_str());
+    return kExitFailure;
+  }
+  std::ostream& traj = *files.traj;
+  std::ostream& tips = *files.tips;
+  std::ostream& frames = *files.frames;
   WriteTrajectoryHeader(traj, w);
   const auto& fmap = sim->config().fingertips;
   tips << "time_s";
@@ -119,7 +154,6 @@ int Replay(const ReplayOptions& opt) {
   tracking::TargetSample sample;
   tracking::RecordedDatagram d;
   bool pending = reader.Next(&d);
-  const bool tty = StdoutIsTerminal() && !opt.quiet;
   // frames depend on the simulated state only (no wall times in the HUD): two
   // replays of a log render identical frames
   FrameRecorder recorder;
@@ -131,6 +165,7 @@ int Replay(const ReplayOptions& opt) {
   using Clock = std::chrono::steady_clock;
   const auto t0 = Clock::now();
   int64_t step = 0;
+  Progress progress("replay", steps, opt.quiet);
   std::vector<double> step_ms;  // wall time per step: printed, never written (outputs stay deterministic)
   step_ms.reserve(static_cast<size_t>(steps));
   int max_iterations = 0, max_contacts = 0;
@@ -186,19 +221,23 @@ int Replay(const ReplayOptions& opt) {
       }
       tips << "\n";
     }
-    if (tty && (step % 100 == 0 || step + 1 == steps)) ProgressBar(static_cast<double>(step + 1) / steps, w.time, duration);
+    if ((step + 1) % 100 == 0) {
+      char detail[64];
+      std::snprintf(detail, sizeof detail, "t=%.2f/%.2f s", w.time, duration);
+      progress.Update(step + 1, detail);
+    }
   }
+  const bool interrupted = step < steps;
+  progress.Done(interrupted ? "interrupted" : "");
   const double wall = std::chrono::duration<double>(Clock::now() - t0).count();
-  if (tty) std::printf("\n");
-  if (!recorder.Finish(&error)) {
-    std::fprintf(stderr, "replay: %s\n", error.c_str());
-    return kExitFailure;
-  }
+  // a video is finalised up to its last frame, also when stopped; the --out files are written either way
+  const bool frames_ok = recorder.Finish(&error);
+  if (!frames_ok) std::fprintf(stderr, "replay: %s\n", error.c_str());
   if (!reader.error().empty()) {
     std::fprintf(stderr, "replay: %s\n", reader.error().c_str());
     return kExitBadInput;
   }
-  if (step < steps) std::printf("replay: interrupted at t=%.3f s\n", w.time);
+  if (interrupted) std::printf("replay: interrupted at t=%.3f s\n", w.time);
   const tracking::ParseStats& ps = sim->parser().stats();
   const bool lifted = max_rise >= 0.02;
   std::printf("replay: %lld steps in %.2f s wall (%.2fx real time); %zu datagrams applied; parse errors %s\n",
@@ -221,13 +260,11 @@ int Replay(const ReplayOptions& opt) {
               static_cast<long long>(w.unconverged_steps));
 
   if (!opt.out.empty()) {
-    std::error_code ec;
-    std::filesystem::create_directories(opt.out, ec);
     std::ostringstream js;
     js.precision(17);
     js << "{\"scene\":\"" << sim->scene().name << "\",\"log\":\"" << std::filesystem::path(log_path).filename().string()
        << "\",\"datagrams\":" << summary.datagrams << ",\"datagrams_applied\":" << next << ",\"steps\":" << step
-       << ",\"dt_s\":" << dt << ",\"simulated_s\":" << w.time << ",\"parse_errors\":" << ps.TotalErrors()
+       << ",\"interrupted\":" << (interrupted ? "true" : "false") << ",\"dt_s\":" << dt << ",\"simulated_s\":" << w.time << ",\"parse_errors\":" << ps.TotalErrors()
        << ",\"parse_errors_by_category\":" << ParseErrorsJson(ps) << ",\"rejected_steps\":" << w.rejected_steps
        << ",\"unconverged_steps\":" << w.unconverged_steps << ",\"max_coupling_force_N\":" << max_coupling
        << ",\"max_penetration_m\":" << max_penetration << ",\"state_hash\":\"" << StateHashHex(w) << "\"";
@@ -236,22 +273,15 @@ int Replay(const ReplayOptions& opt) {
          << ",\"lifted_s\":" << lifted_time << ",\"lifted\":" << (lifted ? "true" : "false") << ",\"final_position_m\":["
          << w.bodies[tracked].pose.t.x() << "," << w.bodies[tracked].pose.t.y() << "," << w.bodies[tracked].pose.t.z()
          << "]";
-    js << "}\n";
-    const std::pair<const char*, std::string> files[] = {{"trajectory.csv", traj.str()},
-                                                        {"fingertips.csv", tips.str()},
-                                                        {"tracker.csv", frames.str()},
-                                                        {"summary.json", js.str()}};
-    for (const auto& [name, text] : files) {
-      std::ofstream f(std::filesystem::path(opt.out) / name, std::ios::binary);
-      f << text;
-      if (!f) {
-        std::fprintf(stderr, "replay: cannot write %s/%s\n", opt.out.c_str(), name);
-        return kExitFailure;
-      }
+    js << "}";
+    if (!files.Close(opt.out, &error) || !WriteSummaryJson(opt.out, js.str(), &error)) {
+      std::fprintf(stderr, "replay: %s\n", error.c_str());
+      return kExitFailure;
     }
     std::printf("replay: wrote %s/trajectory.csv, fingertips.csv, tracker.csv, summary.json\n", opt.out.c_str());
   }
-  return step < steps ? kExitInterrupted : kExitOk;
+  if (interrupted) return kExitInterrupted;
+  return frames_ok ? kExitOk : kExitFailure;
 }
 
 }  // namespace

@@ -9,6 +9,7 @@
 #include "app/commands.h"
 #include "fclib/fclib_io.h"
 #include "scene/paths.h"
+#include "session/console.h"
 #include "session/frame_recorder.h"
 #include "session/run_report.h"
 #include "scene/scene_file.h"
@@ -43,16 +44,68 @@ bool ExportStep(const std::string& dir, const std::string& scene, World& w, int*
   return true;
 }
 
+// Every output is checked (and its folders made) before the scene is built: a
+// mistake in an option costs no simulation.
+bool CheckOutputs(const RunOptions& opt, std::string* error) {
+  if (!CheckRenderOptions(opt.render, error)) return false;
+  if (!opt.out.empty() && !CheckOutputFolder("--out", opt.out, error)) return false;
+  if (opt.export_fclib.empty()) return true;
+  if (!FclibAvailable()) {
+    *error = "--export-fclib: graspsim was built without FCLIB (install libfclib-dev and rebuild)";
+    return false;
+  }
+  return CheckOutputFolder("--export-fclib", opt.export_fclib, error);
+}
+
+std::string SummaryJson(const BuiltScene& built, const RunOptions& opt, int64_t steps_done, double simulated,
+                        double wall, double residual_max, double max_rise, bool interrupted) {
+  const World& w = built.world;
+  const int tracked = built.tracked_body;
+  std::ostringstream js;
+  js << "{\"scene\":\"" << built.name << "\",\"steps\":" << steps_done << ",\"dt_s\":" << w.params.dt
+     << ",\"simulated_s\":" << simulated << ",\"wall_s\":" << wall << ",\"interrupted\":"
+     << (interrupted ? "true" : "false") << ",\"rejected_steps\":" << w.rejected_steps
+     << ",\"pass_through_steps\":" << w.pass_through_steps << ",\"every\":" << opt.every
+     << ",\"unconverged_steps\":" << w.unconverged_steps << ",\"residual_max\":" << residual_max
+     << ",\"state_hash\":\"" << StateHashHex(w) << "\"";
+  if (tracked >= 0)
+    js << ",\"tracked_body\":\"" << w.bodies[tracked].name << "\",\"max_rise_m\":" << max_rise
+       << ",\"final_position_m\":[" << w.bodies[tracked].pose.t.x() << "," << w.bodies[tracked].pose.t.y() << ","
+       << w.bodies[tracked].pose.t.z() << "]";
+  js << "}";
+  return js.str();
+}
+
+void LogRejected(const World& w) {
+  if (w.profile.rejected && w.rejected_steps <= 10)
+    std::fprintf(stderr, "graspsim run: step %lld (t = %.4f s) rejected, previous state kept: %s%s\n",
+                 static_cast<long long>(w.step_count), w.time, RejectText(w).c_str(),
+                 w.rejected_steps == 10 ? " (further rejected steps are counted, not logged)" : "");
+}
+
+std::string StepDetail(const World& w) {
+  char text[160];
+  std::snprintf(text, sizeof text, "t=%.3f s  contacts=%d  iterations=%d  residual=%.1e  step=%.3f ms", w.time,
+                w.profile.contacts, w.profile.iterations, w.profile.residual, 1e3 * w.profile.total);
+  return text;
+}
+
 int Run(const RunOptions& opt) {
   using Clock = std::chrono::steady_clock;
+  std::string error;
+  if (!CheckOutputs(opt, &error)) {
+    std::fprintf(stderr, "graspsim run: %s\n", error.c_str());
+    return kExitUsage;
+  }
   const std::string path = ResolveResource(opt.scene);
+  if (!opt.quiet) std::printf("building scene %s ...\n", path.c_str());
   const auto t0 = Clock::now();
   auto built = std::make_unique<BuiltScene>();
-  std::string error;
   if (!LoadAndBuildScene(path, built.get(), &error)) {
     std::fprintf(stderr, "%s\n", error.c_str());
     return kExitBadInput;
   }
+  if (StopRequested()) return kExitInterrupted;
   World& w = built->world;
   const double build_s = std::chrono::duration<double>(Clock::now() - t0).count();
   const double duration = opt.duration > 0 ? opt.duration : built->duration;
@@ -64,18 +117,6 @@ int Run(const RunOptions& opt) {
   std::printf("simulating %.3f s in %lld steps of %.3g ms\n", duration, static_cast<long long>(steps),
               1e3 * w.params.dt);
 
-  if (!opt.export_fclib.empty()) {
-    if (!FclibAvailable()) {
-      std::fprintf(stderr, "graspsim run: --export-fclib needs FCLIB (install libfclib-dev and rebuild)\n");
-      return kExitUsage;
-    }
-    std::error_code ec;
-    std::filesystem::create_directories(opt.export_fclib, ec);
-    if (ec) {
-      std::fprintf(stderr, "graspsim run: cannot create %s: %s\n", opt.export_fclib.c_str(), ec.message().c_str());
-      return kExitFailure;
-    }
-  }
   int exported = 0;
   std::vector<StepRecord> records;
   records.reserve(static_cast<size_t>(steps));
@@ -92,15 +133,14 @@ int Run(const RunOptions& opt) {
     std::fprintf(stderr, "graspsim run: %s\n", error.c_str());
     return kExitFailure;
   }
+  Progress progress("run", steps, opt.quiet);
   const auto t1 = Clock::now();
-  for (int64_t i = 0; i < steps; ++i) {
+  int64_t done = 0;
+  for (; done < steps && !StopRequested(); ++done) {
     built->script.Apply(w, w.time + w.params.dt);
     w.Step();
     records.push_back(RecordStep(w));
-    if (w.profile.rejected && w.rejected_steps <= 10)
-      std::fprintf(stderr, "graspsim run: step %lld (t = %.4f s) rejected, previous state kept: %s%s\n",
-                   static_cast<long long>(w.step_count), w.time, RejectText(w).c_str(),
-                   w.rejected_steps == 10 ? " (further rejected steps are counted, not logged)" : "");
+    LogRejected(w);
     if (!opt.out.empty()) files.AfterStep(w);
     frames.AfterStep(w);
     if (!opt.export_fclib.empty() && w.step_count % opt.export_every == 0 &&
@@ -110,44 +150,41 @@ int Run(const RunOptions& opt) {
     }
     residual_max = std::max(residual_max, w.profile.residual);
     if (tracked >= 0) max_rise = std::max(max_rise, w.bodies[tracked].pose.t.z() - start.z());
-    if (!opt.quiet && (i + 1) % 500 == 0)
-      std::printf("  t=%.3f s  contacts=%d  iterations=%d  residual=%.1e  step=%.3f ms\n", w.time,
-                  w.profile.contacts, w.profile.iterations, w.profile.residual, 1e3 * w.profile.total);
+    if ((done + 1) % 100 == 0) {
+      progress.Update(done + 1, StepDetail(w));
+      if (!opt.out.empty() && (done + 1) % 1000 == 0) files.Flush();
+    }
   }
+  const bool interrupted = done < steps;
+  progress.Done(interrupted ? "interrupted" : "");
   const double wall = std::chrono::duration<double>(Clock::now() - t1).count();
-  if (!frames.Finish(&error)) {
-    std::fprintf(stderr, "graspsim run: %s\n", error.c_str());
-    return kExitFailure;
-  }
+  const double simulated = static_cast<double>(done) * w.params.dt;
+  if (interrupted)
+    std::printf("run: interrupted at t=%.3f s after %lld of %lld steps; writing what was computed\n", w.time,
+                static_cast<long long>(done), static_cast<long long>(steps));
+  const bool frames_ok = frames.Finish(&error);  // a video is finalised up to its last frame, also when stopped
+  if (!frames_ok) std::fprintf(stderr, "graspsim run: %s\n", error.c_str());
   PrintPaperTables(records);
   if (!opt.export_fclib.empty())
     std::printf("exported %d contact problems (FCLIB) to %s\n", exported, opt.export_fclib.c_str());
   std::printf("\n%lld steps in %.2f s wall (%.2fx real time); %lld steps hit the iteration cap, %lld rejected\n",
-              static_cast<long long>(steps), wall, duration / wall, static_cast<long long>(w.unconverged_steps),
-              static_cast<long long>(w.rejected_steps));
+              static_cast<long long>(done), wall, wall > 0 ? simulated / wall : 0.0,
+              static_cast<long long>(w.unconverged_steps), static_cast<long long>(w.rejected_steps));
   if (tracked >= 0)
     std::printf("%s: highest rise %.2f mm, final position (%.4f, %.4f, %.4f) m\n", w.bodies[tracked].name.c_str(),
                 1e3 * max_rise, w.bodies[tracked].pose.t.x(), w.bodies[tracked].pose.t.y(),
                 w.bodies[tracked].pose.t.z());
 
   if (!opt.out.empty()) {
-    std::ostringstream js;
-    js << "{\"scene\":\"" << built->name << "\",\"steps\":" << steps << ",\"dt_s\":" << w.params.dt
-       << ",\"simulated_s\":" << duration << ",\"wall_s\":" << wall << ",\"rejected_steps\":" << w.rejected_steps
-       << ",\"pass_through_steps\":" << w.pass_through_steps << ",\"every\":" << opt.every
-       << ",\"unconverged_steps\":" << w.unconverged_steps << ",\"residual_max\":" << residual_max
-       << ",\"state_hash\":\"" << StateHashHex(w) << "\"";
-    if (tracked >= 0)
-      js << ",\"tracked_body\":\"" << w.bodies[tracked].name << "\",\"max_rise_m\":" << max_rise
-         << ",\"final_position_m\":[" << w.bodies[tracked].pose.t.x() << "," << w.bodies[tracked].pose.t.y() << ","
-         << w.bodies[tracked].pose.t.z() << "]";
-    js << "}";
-    if (!files.Close(&error) || !WriteRunOutputs(opt.out, built->name, records, js.str(), &error)) {
+    const std::string js = SummaryJson(*built, opt, done, simulated, wall, residual_max, max_rise, interrupted);
+    if (!files.Close(&error) || !WriteSummaryJson(opt.out, js, &error)) {
       std::fprintf(stderr, "graspsim run: %s\n", error.c_str());
       return kExitFailure;
     }
     std::printf("wrote %s/trajectory.csv, contacts.csv, timings.csv, summary.json\n", opt.out.c_str());
   }
+  if (interrupted) return kExitInterrupted;
+  if (!frames_ok) return kExitFailure;
   // a body that went through another is a failed run, even though its steps were undone
   if (w.pass_through_steps > 0) {
     std::fprintf(stderr, "graspsim run: %lld steps rejected because a body passed through another; the last: %s\n",

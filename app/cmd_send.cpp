@@ -60,7 +60,6 @@ int Send(const SendOptions& opt) {
     period = opt.rate > 0 ? static_cast<double>(per_pass) / opt.rate
                           : span + (per_pass > 1 ? span / static_cast<double>(per_pass - 1) : 0.01);
   }
-  InstallStopSignals();
   std::printf("send: %llu datagrams per pass (%.2f s) to %s:%d, %d pass%s\n", static_cast<unsigned long long>(per_pass),
               period, opt.host.c_str(), opt.port, opt.loops, opt.loops == 1 ? "" : "es");
   std::fflush(stdout);

@@ -4,6 +4,7 @@
 #include <memory>
 
 #include "app/commands.h"
+#include "session/console.h"
 #include "validate/stress.h"
 
 namespace gs::app {
@@ -34,18 +35,20 @@ void AddStressCommand(CLI::App& app, int* exit_code) {
     if (!opt->json)
       std::printf("%-24s %-6s %7s %6s %5s %5s %5s %9s %10s %10s %9s  %s\n", "case", "result", "steps", "cont", "nan",
                   "rej", "uncv", "resid", "pen (mm)", "dE (J)", "vmax", "check");
-    int passed = 0, failed = 0, refused = 0;
+    int passed = 0, failed = 0, refused = 0, interrupted = 0;
     double seconds = 0.0;
     for (const std::string& n : StressCaseNames()) {
       if (!opt->filter.empty() && n.find(opt->filter) == std::string::npos) continue;
       std::vector<StressResult> rs = RunStress(opt->s, n);
       for (const StressResult& r : rs) {
         if (r.name != n) continue;  // a filter that is a prefix of a longer name
-        (r.pass ? passed : failed) += 1;
+        (r.interrupted ? interrupted : r.pass ? passed : failed) += 1;
         refused += r.refused ? 1 : 0;
         seconds += r.seconds;
         if (opt->json) {
           std::printf("%s\n", StressJson(r).c_str());
+        } else if (r.interrupted) {
+          std::printf("%-24s %-6s after %lld steps\n", r.name.c_str(), "STOP", static_cast<long long>(r.steps));
         } else if (r.refused) {
           std::printf("%-24s %-6s refused: %s\n", r.name.c_str(), r.pass ? "PASS" : "FAIL", r.refusal.c_str());
         } else {
@@ -62,15 +65,17 @@ void AddStressCommand(CLI::App& app, int* exit_code) {
         std::fflush(stdout);
       }
     }
+    const bool stopped = StopRequested();
     if (opt->json) {
       std::printf("{\"summary\":\"stress\",\"cases\":%d,\"passed\":%d,\"failed\":%d,\"refused\":%d,\"quick\":%s,"
-                  "\"seconds\":%.2f,\"pass\":%s}\n",
+                  "\"seconds\":%.2f,\"interrupted\":%s,\"pass\":%s}\n",
                   passed + failed, passed, failed, refused, opt->s.quick ? "true" : "false", seconds,
-                  failed == 0 ? "true" : "false");
+                  stopped ? "true" : "false", failed == 0 && !stopped ? "true" : "false");
     } else {
-      std::printf("%d of %d cases passed (%d refused up front), %.1f s\n", passed, passed + failed, refused, seconds);
+      std::printf("%d of %d cases passed (%d refused up front), %.1f s%s\n", passed, passed + failed, refused, seconds,
+                  stopped ? "; interrupted: the cases after the one stopped were not run" : "");
     }
-    *exit_code = failed == 0 ? kExitOk : kExitFailure;
+    *exit_code = stopped ? kExitInterrupted : failed == 0 ? kExitOk : kExitFailure;
   });
 }
 

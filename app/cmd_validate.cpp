@@ -4,6 +4,7 @@
 #include <memory>
 
 #include "app/commands.h"
+#include "session/console.h"
 #include "validate/validation.h"
 
 namespace gs::app {
@@ -14,8 +15,11 @@ void PrintResult(const ValidationResult& r, bool json) {
   if (json) {
     std::string mode;
     if (!r.contact_mode.empty()) mode = ",\"contact_mode\":\"" + r.contact_mode + "\"";
+    if (r.interrupted) mode += ",\"interrupted\":true";
     std::printf("{\"name\":\"%s\",\"error\":%.6g,\"tolerance\":%.6g,\"unit\":\"%s\",\"pass\":%s%s}\n",
                 r.name.c_str(), r.error, r.tolerance, r.unit.c_str(), r.pass ? "true" : "false", mode.c_str());
+  } else if (r.interrupted) {
+    std::printf("%-16s STOP interrupted before its end: no verdict\n", r.name.c_str());
   } else {
     std::printf("%-16s %-4s error %.3g %s (tolerance %.3g)  %s\n", r.name.c_str(), r.pass ? "PASS" : "FAIL", r.error,
                 r.unit.c_str(), r.tolerance, r.detail.c_str());
@@ -28,6 +32,7 @@ void AddValidateCommand(CLI::App& app, int* exit_code) {
   struct Opt {
     std::string name = "all";
     bool json = false;
+    bool quiet = false;
     ValidationOptions v;
   };
   auto opt = std::make_shared<Opt>();
@@ -37,6 +42,7 @@ void AddValidateCommand(CLI::App& app, int* exit_code) {
   cmd->add_option("name", opt->name, names)->capture_default_str();
   cmd->add_flag("--json", opt->json, "one JSON object per case: name, error, pass");
   cmd->add_flag("--quick", opt->v.quick, "shorter holds and coarser sampling");
+  cmd->add_flag("--quiet", opt->quiet, "no line announcing each family");
   cmd->callback([opt, exit_code]() {
     const std::vector<std::string> families = ValidationNames();
     const bool known = opt->name == "all" || std::find(families.begin(), families.end(), opt->name) != families.end();
@@ -48,18 +54,32 @@ void AddValidateCommand(CLI::App& app, int* exit_code) {
       return;
     }
     // family by family, each printed as soon as it is done (all takes minutes)
-    bool all = true;
+    int passed = 0, failed = 0, stopped = 0;
+    std::vector<std::string> not_run;
     for (const std::string& family : families) {
       if (opt->name != "all" && opt->name != family) continue;
+      if (StopRequested()) {
+        not_run.push_back(family);
+        continue;
+      }
+      if (!opt->json && !opt->quiet) std::printf("validate %s ...\n", family.c_str());
       std::vector<ValidationResult> results;
       RunValidation(family, opt->v, &results);
       for (const ValidationResult& r : results) {
-        all &= r.pass;
+        (r.interrupted ? stopped : r.pass ? passed : failed) += 1;
         PrintResult(r, opt->json);
       }
-      std::fflush(stdout);
     }
-    *exit_code = all ? kExitOk : kExitFailure;
+    if (!opt->json) {
+      std::printf("validate: %d passed, %d failed", passed, failed);
+      if (StopRequested()) {
+        std::printf("; interrupted: %d cases without a verdict", stopped);
+        for (size_t i = 0; i < not_run.size(); ++i)
+          std::printf("%s%s", i == 0 ? "; not run: " : ", ", not_run[i].c_str());
+      }
+      std::printf("\n");
+    }
+    *exit_code = StopRequested() ? kExitInterrupted : failed == 0 ? kExitOk : kExitFailure;
   });
 }
 

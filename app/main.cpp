@@ -3,8 +3,13 @@
 #include <cstdio>
 
 #include "app/commands.h"
+#include "session/console.h"
 
 int main(int argc, char** argv) {
+  // progress and summaries line by line, also through a pipe or into a log file
+  std::setvbuf(stdout, nullptr, _IOLBF, 0);
+  // Ctrl-C and SIGTERM: every command stops at its next step, writes what it has, exits 130
+  gs::app::InstallStopSignals();
   CLI::App app{"graspsim: real-time virtual grasping of deformable objects with exact Coulomb friction"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "graspsim 0.1.0");
@@ -26,5 +31,11 @@ int main(int argc, char** argv) {
     const int rc = app.exit(e);
     return rc == 0 ? 0 : gs::app::kExitUsage;
   }
+  // a command with a set amount of work that was stopped says so in its exit code;
+  // live and record run until they are stopped, and that is their normal end
+  const bool runs_until_stopped = app.got_subcommand("live") || app.got_subcommand("record");
+  if (gs::app::StopRequested() && !runs_until_stopped && exit_code != gs::app::kExitUsage &&
+      exit_code != gs::app::kExitBadInput)
+    return gs::app::kExitInterrupted;
   return exit_code;
 }

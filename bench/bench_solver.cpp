@@ -41,6 +41,7 @@
 #include "core/fc_fallback.h"
 #include "core/fc_families.h"
 #include "core/world.h"
+#include "session/console.h"
 #ifdef GRASPSIM_HAVE_FCLIB
 #include "fclib/fclib_io.h"
 #endif
@@ -417,15 +418,17 @@ void PrintJsonHeadline(const Summary& s, size_t problems) {
       "\"time_ratio_vs_best_siconos_median\":%s,\"time_ratio_vs_best_siconos_p90\":%s,"
       "\"worst_time_ratio_vs_best_siconos\":%s,\"time_ratio_vs_nsgs_median\":%s,\"worst_time_ratio_vs_nsgs\":%s,"
       "\"target_ratio\":0.5,\"nsgs_unsolved\":%d,\"solved_where_nsgs_stalls\":%d,"
-      "\"solved_where_no_siconos_solves\":%d,\"siconos_solves_where_we_fail\":%d,\"all_failed\":%d,\"unsolved\":%d}\n",
+      "\"solved_where_no_siconos_solves\":%d,\"siconos_solves_where_we_fail\":%d,\"all_failed\":%d,\"unsolved\":%d,"
+      "\"interrupted\":%s}\n",
       SiconosAvailable() ? "true" : "false", FclibAvailable() ? "true" : "false", problems, kTarget, s.min_rounds,
       Num(Median(s.ratio_best)).c_str(), Num(Quantile(s.ratio_best, 0.9)).c_str(),
       Num(Quantile(s.ratio_best, 1.0)).c_str(), Num(Median(s.ratio_nsgs)).c_str(),
       Num(Quantile(s.ratio_nsgs, 1.0)).c_str(), s.nsgs_unsolved, s.stall_wins, s.no_siconos_wins, s.siconos_only,
-      s.all_failed, s.unsolved);
+      s.all_failed, s.unsolved, StopRequested() ? "true" : "false");
 }
 
 void PrintHumanHeadline(const Summary& s) {
+  if (StopRequested()) std::printf("\ninterrupted: the figures below cover the problems measured before the stop\n");
   std::printf("\nours / fastest Siconos solver that solved it, over %zu problems: median %s, 90th percentile %s, "
               "worst %s\n",
               s.ratio_best.size(), Short(Median(s.ratio_best)).c_str(), Short(Quantile(s.ratio_best, 0.9)).c_str(),
@@ -480,7 +483,9 @@ int RunBenchSolver(const BenchOptions& opt) {
   }
   std::vector<Row> rows;
   for (const Problem& pr : problems) {
-    rows.push_back(RunProblem(pr));
+    Row row = RunProblem(pr);
+    if (StopRequested()) break;  // Ctrl-C also reached the solves' child processes: this row is not measured
+    rows.push_back(std::move(row));
     if (opt.json) {
       PrintJsonRow(rows.back());
       PrintJsonFailures(rows.back());

@@ -22,6 +22,7 @@
 #include "bench/tradeoff.h"
 #include "core/fc_problem.h"
 #include "core/world.h"
+#include "session/console.h"
 
 namespace gs::app {
 namespace {
@@ -42,7 +43,9 @@ struct Emitter {
   void operator()(TradeoffRow r) {
     if (progress) progress(r);
     rows->push_back(std::move(r));
+    if (StopRequested()) throw Stopped{};  // Ctrl-C: the sweep ends at this row, the rows so far are kept
   }
+  struct Stopped {};
 };
 
 // ---- surface points: MLS error on a sphere / step time of a ball resting on it ----
@@ -550,12 +553,15 @@ std::vector<TradeoffRow> RunTradeoff(const TradeoffOptions& opt, void (*progress
   std::vector<TradeoffRow> rows;
   Emitter emit{&rows, progress};
   auto want = [&](const char* k) { return opt.only.empty() || opt.only == k; };
-  if (want("surface_points")) SweepSurfacePoints(opt, emit);
-  if (want("bandwidth")) SweepBandwidth(opt, emit);
-  if (want("control_points")) SweepControlPoints(opt, emit);
-  if (want("gs_tolerance")) SweepSolver(opt, true, emit);
-  if (want("gs_iterations")) SweepSolver(opt, false, emit);
-  if (want("dt")) SweepDt(opt, emit);
+  try {
+    if (want("surface_points")) SweepSurfacePoints(opt, emit);
+    if (want("bandwidth")) SweepBandwidth(opt, emit);
+    if (want("control_points")) SweepControlPoints(opt, emit);
+    if (want("gs_tolerance")) SweepSolver(opt, true, emit);
+    if (want("gs_iterations")) SweepSolver(opt, false, emit);
+    if (want("dt")) SweepDt(opt, emit);
+  } catch (const Emitter::Stopped&) {
+  }
   // series together, in the order they first appeared
   std::map<std::string, size_t> first;
   for (size_t i = 0; i < rows.size(); ++i) first.emplace(SeriesKey(rows[i]), i);
@@ -731,8 +737,8 @@ int RunBenchTradeoff(const BenchOptions& opt) {
   if (opt.json) {
     for (const TradeoffRow& r : rows) std::printf("%s\n", TradeoffJson(r).c_str());
     std::printf("{\"bench\":\"tradeoff\",\"rows\":%zu,\"pareto_rows\":%d,\"unmeasured\":%d,\"plots\":%zu,"
-                "\"seconds\":%.1f}\n",
-                rows.size(), pareto, unmeasured, pngs.size(), seconds);
+                "\"seconds\":%.1f,\"interrupted\":%s}\n",
+                rows.size(), pareto, unmeasured, pngs.size(), seconds, StopRequested() ? "true" : "false");
   } else {
     std::printf("graspsim bench tradeoff: time (median) against the error each knob affects; * = on the Pareto front\n");
     std::string last;
@@ -746,7 +752,8 @@ int RunBenchTradeoff(const BenchOptions& opt) {
       }
       std::printf("  %12g %12.4g %12.4g %s %s\n", r.value, r.error, r.time_ms, r.pareto ? "*" : " ", r.detail.c_str());
     }
-    std::printf("\n  %zu settings, %d on a Pareto front, %.1f s\n", rows.size(), pareto, seconds);
+    std::printf("\n  %zu settings, %d on a Pareto front, %.1f s%s\n", rows.size(), pareto, seconds,
+                StopRequested() ? " (interrupted: the sweep stopped there)" : "");
     if (!pngs.empty()) std::printf("  wrote %s/tradeoff.csv and %zu PNG plots\n", opt.plot_dir.c_str(), pngs.size());
   }
   if (!plotted) {

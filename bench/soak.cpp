@@ -14,6 +14,7 @@
 #include "tracking/session_log.h"
 #include "tracking/synthetic_hand.h"
 #include "tracking/udp_receiver.h"
+#include "session/console.h"
 
 namespace gs::app {
 namespace {
@@ -124,6 +125,10 @@ bool RunSoak(const SoakOptions& opt, SoakResult* out, std::string* error) {
     }
     if (!pending && !reader.error().empty()) {
       *error = "soak: " + reader.error();
+      return false;
+    }
+    if (StopRequested()) {  // Ctrl-C: a soak cut short measures nothing it promises
+      *error = "soak: interrupted at step " + std::to_string(step) + " of " + std::to_string(steps);
       return false;
     }
     sim->Step();

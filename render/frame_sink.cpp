@@ -10,7 +10,9 @@
 
 #include "render/frame_sink.h"
 
+#include <fcntl.h>
 #include <signal.h>
+#include <spawn.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -19,6 +21,9 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <vector>
+
+extern char** environ;
 
 namespace gs::render {
 
@@ -80,16 +85,55 @@ bool PngSequence::Write(const Image& img, std::string* error) {
 
 bool PngSequence::Close(std::string*) { return true; }
 
-namespace {
-std::string ShellQuote(const std::string& s) {
-  std::string q = "'";
-  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return q + "'";
-}
-}  // namespace
-
 FfmpegVideo::~FfmpegVideo() {
-  if (pipe_) pclose(pipe_);
+  if (!pipe_) return;
+  std::fclose(pipe_);
+  int status = 0;
+  waitpid(pid_, &status, 0);
+}
+
+// ffmpeg runs in a process group of its own: the terminal's Ctrl-C reaches only
+// graspsim, which stops at its next step and closes the video properly (an
+// encoder killed with us would leave an unplayable file without its index).
+bool FfmpegVideo::Spawn(const std::string& exe, const std::string& path, int width, int height, int fps,
+                        std::string* error) {
+  const std::string size = std::to_string(width) + "x" + std::to_string(height);
+  const std::string rate = std::to_string(fps);
+  std::vector<std::string> argv = {exe, "-nostdin", "-y", "-loglevel", "error", "-f", "rawvideo", "-pix_fmt",
+                                   "rgb24", "-s", size, "-r", rate, "-i", "-", "-c:v", "libx264", "-preset",
+                                   "veryfast", "-crf", "20", "-pix_fmt", "yuv420p", "-movflags", "+faststart", path};
+  std::vector<char*> args;
+  for (std::string& a : argv) args.push_back(a.data());
+  args.push_back(nullptr);
+  int fds[2];
+  if (pipe2(fds, O_CLOEXEC) != 0) {
+    *error = "--video: cannot start ffmpeg: " + std::string(std::strerror(errno));
+    return false;
+  }
+  posix_spawn_file_actions_t fa;
+  posix_spawn_file_actions_init(&fa);
+  posix_spawn_file_actions_adddup2(&fa, fds[0], STDIN_FILENO);
+  posix_spawnattr_t attr;
+  posix_spawnattr_init(&attr);
+  posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETPGROUP);
+  posix_spawnattr_setpgroup(&attr, 0);
+  const int rc = posix_spawn(&pid_, exe.c_str(), &fa, &attr, args.data(), environ);
+  posix_spawnattr_destroy(&attr);
+  posix_spawn_file_actions_destroy(&fa);
+  close(fds[0]);
+  if (rc != 0) {
+    close(fds[1]);
+    *error = "--video: cannot start ffmpeg (" + exe + "): " + std::string(std::strerror(rc));
+    return false;
+  }
+  pipe_ = fdopen(fds[1], "w");
+  if (!pipe_) {
+    close(fds[1]);
+    waitpid(pid_, nullptr, 0);
+    *error = "--video: cannot write to ffmpeg: " + std::string(std::strerror(errno));
+    return false;
+  }
+  return true;
 }
 
 bool FfmpegVideo::Open(const std::string& path, int width, int height, int fps, std::string* error) {
@@ -114,15 +158,7 @@ bool FfmpegVideo::Open(const std::string& path, int width, int height, int fps, 
   }
   // the encoder quitting must give an error, not kill us
   signal(SIGPIPE, SIG_IGN);
-  const std::string cmd = ShellQuote(exe) + " -nostdin -y -loglevel error -f rawvideo -pix_fmt rgb24 -s " +
-                          std::to_string(width) + "x" + std::to_string(height) + " -r " + std::to_string(fps) +
-                          " -i - -c:v libx264 -preset veryfast -crf 20 -pix_fmt yuv420p -movflags +faststart " +
-                          ShellQuote(path);
-  pipe_ = popen(cmd.c_str(), "w");
-  if (!pipe_) {
-    *error = "--video: cannot start ffmpeg: " + std::string(std::strerror(errno));
-    return false;
-  }
+  if (!Spawn(exe, path, width, height, fps, error)) return false;
   path_ = path;
   width_ = width;
   height_ = height;
@@ -157,9 +193,10 @@ bool FfmpegVideo::Write(const Image& img, std::string* error) {
 
 bool FfmpegVideo::Close(std::string* error) {
   if (!pipe_) return true;
-  const int status = pclose(pipe_);
+  std::fclose(pipe_);
   pipe_ = nullptr;
-  if (status == -1) {
+  int status = 0;
+  if (waitpid(pid_, &status, 0) == -1) {
     *error = "--video: cannot wait for ffmpeg: " + std::string(std::strerror(errno));
     return false;
   }

@@ -4,6 +4,8 @@
 // encoder that quits (its SIGPIPE is ignored and pclose's status checked).
 #pragma once
 
+#include <sys/types.h>
+
 #include <cstdio>
 #include <string>
 #include <vector>
@@ -46,7 +48,9 @@ class FfmpegVideo : public FrameSink {
   int frames() const override { return count_; }
 
  private:
-  FILE* pipe_ = nullptr;
+  bool Spawn(const std::string& exe, const std::string& path, int width, int height, int fps, std::string* error);
+  FILE* pipe_ = nullptr;  ///< ffmpeg's stdin
+  pid_t pid_ = -1;
   std::string path_;
   int width_ = 0, height_ = 0, count_ = 0;
   std::vector<uint8_t> rgb_;

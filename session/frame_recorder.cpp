@@ -35,6 +35,55 @@ bool ParseSize(const std::string& text, int* width, int* height, std::string* er
   return true;
 }
 
+bool CheckOutputFolder(const std::string& option, const std::string& dir, std::string* error) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec || !fs::is_directory(dir, ec)) {
+    *error = option + " " + dir + ": cannot create the folder" + (ec ? ": " + ec.message() : std::string(": not a folder"));
+    return false;
+  }
+  if (access(dir.c_str(), W_OK) != 0) {
+    *error = option + " " + dir + ": the folder is not writable";
+    return false;
+  }
+  return true;
+}
+
+bool CheckRenderOptions(const RenderOptions& opt, std::string* error) {
+  if (!opt.enabled()) return true;
+  int width = 0, height = 0;
+  if (!ParseSize(opt.size, &width, &height, error)) return false;
+  if (!opt.video.empty()) {
+    if (width % 2 || height % 2) {
+      *error = "--video: the size " + opt.size + " has an odd side; H.264 (yuv420p) needs even width and height";
+      return false;
+    }
+    const std::string ext = std::filesystem::path(opt.video).extension().string();
+    if (ext != ".mp4" && ext != ".mkv" && ext != ".mov") {
+      *error = "--video " + opt.video + ": unknown video type '" + (ext.empty() ? std::string("(no extension)") : ext) +
+               "'; name the file .mp4 (or .mkv, .mov)";
+      return false;
+    }
+    if (render::FindExecutable("ffmpeg").empty()) {
+      *error = "--video: ffmpeg was not found on PATH (install it: apt-get install ffmpeg), or use --frames DIR";
+      return false;
+    }
+    const std::filesystem::path parent = std::filesystem::path(opt.video).parent_path();
+    std::error_code ec;
+    if (!parent.empty() && !std::filesystem::is_directory(parent, ec)) {
+      *error = "--video " + opt.video + ": folder " + parent.string() + " does not exist";
+      return false;
+    }
+    if (access(parent.empty() ? "." : parent.c_str(), W_OK) != 0) {
+      *error = "--video " + opt.video + ": folder " + (parent.empty() ? std::string(".") : parent.string()) +
+               " is not writable";
+      return false;
+    }
+  }
+  return opt.frames.empty() || CheckOutputFolder("--frames", opt.frames, error);
+}
+
 render::Camera SceneOrDefaultCamera(const BuiltScene& scene, const SnapshotRig& rig, const WorldSnapshot& s) {
   // the scripted hand's travel: the objects it carries move with it
   std::vector<Vec3> sweep;
@@ -82,37 +131,8 @@ bool FrameRecorder::Start(const RenderOptions& opt, const BuiltScene& scene, std
   opt_ = opt;
   mode_ = mode;
   wall_times_ = wall_times;
-  if (!ParseSize(opt.size, &width_, &height_, error)) return false;
-  if (!opt.video.empty() && (width_ % 2 || height_ % 2)) {
-    *error = "--video: the size " + opt.size + " has an odd side; H.264 (yuv420p) needs even width and height";
-    return false;
-  }
-  if (!opt.video.empty()) {
-    if (render::FindExecutable("ffmpeg").empty()) {
-      *error = "--video: ffmpeg was not found on PATH (install it: apt-get install ffmpeg), or use --frames DIR";
-      return false;
-    }
-    const std::filesystem::path parent = std::filesystem::path(opt.video).parent_path();
-    std::error_code ec;
-    if (!parent.empty() && !std::filesystem::is_directory(parent, ec)) {
-      *error = "--video " + opt.video + ": folder " + parent.string() + " does not exist";
-      return false;
-    }
-    if (access(parent.empty() ? "." : parent.c_str(), W_OK) != 0) {
-      *error = "--video " + opt.video + ": folder " + (parent.empty() ? std::string(".") : parent.string()) +
-               " is not writable";
-      return false;
-    }
-  }
-  // the sinks are opened on the render thread; check what can fail here
-  if (!opt.frames.empty()) {
-    render::PngSequence probe;
-    if (!probe.Open(opt.frames, error)) return false;
-    if (access(opt.frames.c_str(), W_OK) != 0) {
-      *error = "--frames: folder " + opt.frames + " is not writable";
-      return false;
-    }
-  }
+  if (!CheckRenderOptions(opt, error)) return false;
+  ParseSize(opt.size, &width_, &height_, error);
   const World& w = scene.world;
   {
     // tracked fingertips (free bodies of their own) are drawn and treated as fingertips

@@ -34,6 +34,15 @@ struct RenderOptions {
   bool enabled() const { return !frames.empty() || !video.empty() || discard; }
 };
 
+/// Everything about the outputs that can be checked before any work: the size
+/// (even sides for a video), the video's type, folder and encoder, the frames'
+/// folder (created). False with a message naming the option and the value.
+bool CheckRenderOptions(const RenderOptions& opt, std::string* error);
+
+/// Creates `dir` if needed and checks that it is a writable folder; the message
+/// names `option` and the folder.
+bool CheckOutputFolder(const std::string& option, const std::string& dir, std::string* error);
+
 /// "640x480" -> 640, 480; false with a message naming the problem.
 bool ParseSize(const std::string& text, int* width, int* height, std::string* error);
 

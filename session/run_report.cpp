@@ -64,43 +64,39 @@ StepRecord RecordStep(const World& w) {
   return r;
 }
 
-bool WriteRunOutputs(const std::string& dir, const std::string& scene_name, const std::vector<StepRecord>& steps,
-                     const std::string& summary_json, std::string* error) {
-  namespace fs = std::filesystem;
-  std::error_code ec;
-  fs::create_directories(dir, ec);
-  if (ec) {
-    *error = "cannot create output folder '" + dir + "': " + ec.message();
-    return false;
-  }
+void WriteTimingsHeader(std::ostream& o) {
+  o << "step,time_s,contacts,iterations,residual,converged,rejected,free_motion_ms,traverse_ms,"
+       "interpenetration_ms,refit_ms,fill_w_rigid_ms,fill_w_deform_ms,solve_ms,constrained_motion_ms,total_ms\n";
+}
+
+void WriteTimingsRow(std::ostream& o, const World& w) {
+  const StepProfile& p = w.profile;
+  char line[512];
+  std::snprintf(line, sizeof line, "%lld,%.6f,%d,%d,%.3e,%d,%d,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f\n",
+                static_cast<long long>(w.step_count), w.time, p.contacts, p.iterations, p.residual,
+                p.converged ? 1 : 0, p.rejected ? 1 : 0, 1e3 * p.free_motion, 1e3 * p.traverse,
+                1e3 * p.interpenetration, 1e3 * p.refit, 1e3 * p.fill_w_rigid, 1e3 * p.fill_w_deform,
+                1e3 * p.solve, 1e3 * p.constrained_motion, 1e3 * p.total);
+  o << line;
+}
+
+bool WriteSummaryJson(const std::string& dir, const std::string& summary_json, std::string* error) {
+  const std::string path = (std::filesystem::path(dir) / "summary.json").string();
+  const std::string tmp = path + ".part";
   {
-    std::ofstream f(fs::path(dir) / "timings.csv");
-    f << "step,time_s,contacts,iterations,residual,converged,rejected,free_motion_ms,traverse_ms,"
-         "interpenetration_ms,refit_ms,fill_w_rigid_ms,fill_w_deform_ms,solve_ms,constrained_motion_ms,total_ms\n";
-    char line[512];
-    for (size_t i = 0; i < steps.size(); ++i) {
-      const StepProfile& p = steps[i].profile;
-      std::snprintf(line, sizeof line, "%zu,%.6f,%d,%d,%.3e,%d,%d,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f\n",
-                    i + 1, steps[i].time, p.contacts, p.iterations, p.residual, p.converged ? 1 : 0,
-                    p.rejected ? 1 : 0, 1e3 * p.free_motion, 1e3 * p.traverse, 1e3 * p.interpenetration,
-                    1e3 * p.refit, 1e3 * p.fill_w_rigid, 1e3 * p.fill_w_deform, 1e3 * p.solve,
-                    1e3 * p.constrained_motion, 1e3 * p.total);
-      f << line;
-    }
-    if (!f) {
-      *error = "cannot write '" + (fs::path(dir) / "timings.csv").string() + "'";
-      return false;
-    }
-  }
-  {
-    std::ofstream f(fs::path(dir) / "summary.json");
+    std::ofstream f(tmp, std::ios::binary);
     f << summary_json << "\n";
     if (!f) {
-      *error = "cannot write summary.json in '" + dir + "'";
+      *error = "cannot write '" + path + "'";
       return false;
     }
   }
-  (void)scene_name;
+  std::error_code ec;
+  std::filesystem::rename(tmp, path, ec);  // whole or not at all
+  if (ec) {
+    *error = "cannot write '" + path + "': " + ec.message();
+    return false;
+  }
   return true;
 }
 
@@ -169,10 +165,12 @@ bool StepFiles::Open(const std::string& dir, const World& w, int every, std::str
   every_ = std::max(1, every);
   trajectory_.open(fs::path(dir) / "trajectory.csv", std::ios::binary);
   contacts_.open(fs::path(dir) / "contacts.csv", std::ios::binary);
-  if (!trajectory_ || !contacts_) {
-    *error = "cannot write trajectory.csv and contacts.csv in '" + dir + "'";
+  timings_.open(fs::path(dir) / "timings.csv", std::ios::binary);
+  if (!trajectory_ || !contacts_ || !timings_) {
+    *error = "cannot write trajectory.csv, contacts.csv and timings.csv in '" + dir + "'";
     return false;
   }
+  WriteTimingsHeader(timings_);
   WriteTrajectoryHeader(trajectory_, w);
   WriteTrajectoryRow(trajectory_, w);  // the start, step 0
   contacts_ << "step,t_s,body_a,body_b,contacts,stick,slip,separating,fn_N,ft_N,penetration_before_m,"
@@ -181,6 +179,7 @@ bool StepFiles::Open(const std::string& dir, const World& w, int every, std::str
 }
 
 void StepFiles::AfterStep(const World& w) {
+  WriteTimingsRow(timings_, w);
   if (w.step_count % every_ != 0) return;
   WriteTrajectoryRow(trajectory_, w);
   if (w.profile.rejected) return;
@@ -204,11 +203,18 @@ void StepFiles::AfterStep(const World& w) {
   }
 }
 
+void StepFiles::Flush() {
+  trajectory_.flush();
+  contacts_.flush();
+  timings_.flush();
+}
+
 bool StepFiles::Close(std::string* error) {
   trajectory_.close();
   contacts_.close();
-  if (trajectory_.fail() || contacts_.fail()) {
-    *error = "cannot write trajectory.csv or contacts.csv in '" + dir_ + "'";
+  timings_.close();
+  if (trajectory_.fail() || contacts_.fail() || timings_.fail()) {
+    *error = "cannot write trajectory.csv, contacts.csv or timings.csv in '" + dir_ + "'";
     return false;
   }
   return true;

@@ -21,10 +21,13 @@ struct StepRecord {
 /// Reads the contact state of the last step into a record.
 StepRecord RecordStep(const World& w);
 
-/// Writes timings.csv (one line per step) and summary.json into `dir`, creating
-/// it (StepFiles writes the rest). False with a message on error.
-bool WriteRunOutputs(const std::string& dir, const std::string& scene_name, const std::vector<StepRecord>& steps,
-                     const std::string& summary_json, std::string* error);
+/// timings.csv: one line per step, the stages' wall times in ms.
+void WriteTimingsHeader(std::ostream& o);
+void WriteTimingsRow(std::ostream& o, const World& w);
+
+/// Writes DIR/summary.json whole (through a temporary file and a rename), so that
+/// an interrupted or failed write never leaves half a summary.
+bool WriteSummaryJson(const std::string& dir, const std::string& summary_json, std::string* error);
 
 /// trajectory.csv of run and replay: `step,t_s`, then each free body's position
 /// (`NAME_x_m`, `NAME_y_m`, `NAME_z_m`) and orientation quaternion (`NAME_qw`,
@@ -41,19 +44,22 @@ std::string RejectText(const World& w);
 /// World::last_pass_through in words: the bodies, the step, how close the centres came.
 std::string PassThroughText(const World& w);
 
-/// The per-step files of `run --out DIR`, written as the run goes: trajectory.csv
-/// and contacts.csv (one line per step and touching body pair: contacts, stick,
-/// slip, separating, normal and tangential force, penetration before and after
-/// the solve; no line for a rejected step), each every `every` steps.
+/// The per-step files of `run --out DIR`, written as the run goes (so that an
+/// interrupted run keeps every step it made): trajectory.csv and contacts.csv (one
+/// line per step and touching body pair: contacts, stick, slip, separating, normal
+/// and tangential force, penetration before and after the solve; no line for a
+/// rejected step), each every `every` steps, and timings.csv, every step.
 class StepFiles {
  public:
   bool Open(const std::string& dir, const World& w, int every, std::string* error);
   void AfterStep(const World& w);
+  /// Hands the rows written so far to the OS (a reader sees them; a crash keeps them).
+  void Flush();
   bool Close(std::string* error);
 
  private:
   std::string dir_;
-  std::ofstream trajectory_, contacts_;
+  std::ofstream trajectory_, contacts_, timings_;
   int every_ = 1;
 };
 

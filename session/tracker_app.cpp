@@ -1,31 +1,6 @@
 #include "session/tracker_app.h"
 
-#include <unistd.h>
-
-#include <atomic>
-#include <csignal>
-
 namespace gs::app {
-namespace {
-
-std::atomic<bool> g_stop{false};
-
-extern "C" void OnStopSignal(int) { g_stop.store(true); }
-
-}  // namespace
-
-void InstallStopSignals() {
-  g_stop = false;
-  struct sigaction sa {};
-  sa.sa_handler = OnStopSignal;
-  sigemptyset(&sa.sa_mask);
-  sigaction(SIGINT, &sa, nullptr);
-  sigaction(SIGTERM, &sa, nullptr);
-}
-
-bool StopRequested() { return g_stop.load(); }
-
-bool StdoutIsTerminal() { return isatty(STDOUT_FILENO) == 1; }
 
 std::string FormatParseErrors(const tracking::ParseStats& s) {
   std::string out = std::to_string(s.TotalErrors());

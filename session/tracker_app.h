@@ -1,19 +1,13 @@
 // Pieces shared by the tracker commands (record, send, replay, live, bench
-// tracking): Ctrl-C handling, terminal detection, parse-error summaries.
+// tracking): parse-error summaries (Ctrl-C and terminals: session/console.h).
 #pragma once
 
 #include <string>
 
+#include "session/console.h"
 #include "tracking/dtrack_parser.h"
 
 namespace gs::app {
-
-/// SIGINT and SIGTERM set a flag instead of killing the process.
-void InstallStopSignals();
-bool StopRequested();
-
-/// True when stdout is a terminal (progress bars and status lines only then).
-bool StdoutIsTerminal();
 
 /// "0" or "3 (syntax 1, non_finite 2)".
 std::string FormatParseErrors(const tracking::ParseStats& s);

@@ -15,6 +15,7 @@
 #include "core/virtual_coupling.h"
 #include "core/world.h"
 #include "tracking/target_follower.h"
+#include "session/console.h"
 
 namespace gs::app {
 namespace {
@@ -179,6 +180,7 @@ StressResult Run(World& w, const CaseSpec& c) {
   for (int64_t i = 0; i < c.steps; ++i) {
     if (c.before_step) c.before_step(w, i);
     w.Step();
+    if (StopRequested()) break;  // Ctrl-C: the case ends here, reported as interrupted
     ++r.steps;
     const StepProfile& p = w.profile;
     r.contacts_max = std::max(r.contacts_max, p.contacts);
@@ -801,9 +803,15 @@ std::vector<StressResult> RunStress(const StressOptions& opt, const std::string&
   std::vector<StressResult> out;
   for (const Entry& e : Cases()) {
     if (!filter.empty() && std::string(e.name).find(filter) == std::string::npos) continue;
+    if (StopRequested()) break;
     const auto t0 = std::chrono::steady_clock::now();
     StressResult r = e.run(opt, e.name);
     r.name = e.name;
+    if (StopRequested()) {
+      r.interrupted = true;
+      r.pass = false;
+      r.detail = "interrupted";
+    }
     r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     out.push_back(std::move(r));
   }
@@ -825,7 +833,9 @@ std::string StressJson(const StressResult& r) {
   s += ",\"speed_max_m_s\":" + Num(r.speed_max);
   s += ",\"expectation_ok\":" + std::string(r.expectation_ok ? "true" : "false");
   s += ",\"detail\":\"" + JsonEscape(r.detail) + "\",\"what\":\"" + JsonEscape(r.what) + "\"";
-  s += ",\"seconds\":" + Num(r.seconds) + "}";
+  s += ",\"seconds\":" + Num(r.seconds);
+  if (r.interrupted) s += ",\"interrupted\":true";
+  s += "}";
   return s;
 }
 

@@ -53,6 +53,7 @@ struct StressResult {
   bool expectation_ok = true;     ///< the case's own physical check
   std::string detail;             ///< what the case's own check measured, or why it failed
   double seconds = 0.0;           ///< wall time of the case
+  bool interrupted = false;       ///< cut short by Ctrl-C or SIGTERM: no verdict (pass is false)
 };
 
 /// Case names, in the order they run.

@@ -25,6 +25,7 @@
 #include "scene/code_scenes.h"
 #include "validate/validation_util.h"
 #include "core/world.h"
+#include "session/console.h"
 
 namespace gs::app {
 namespace {
@@ -135,6 +136,7 @@ void Settle(World& w, int sphere) {
   double z = w.bodies[sphere].pose.t.z();
   for (int i = 0, calm = 0; i < 300 && calm < 5; ++i) {
     w.Step();
+    if (StopRequested()) break;  // Ctrl-C: the case ends here, reported as interrupted
     const double now = w.bodies[sphere].pose.t.z();
     calm = std::abs(now - z) < 1e-9 ? calm + 1 : 0;
     z = now;
@@ -220,7 +222,9 @@ void Judge(const std::string& scene, const std::string& what, const Run& run, co
 std::vector<ValidationResult> ValidateHertz(const ValidationOptions& opt) {
   std::vector<ValidationResult> out;
   Judge("sphere", "Boussinesq sphere on a rigid plane", PressSphere(EScene::SphereOnPlane, true, opt.quick), "", &out);
+  if (StopRequested()) return out;
   Judge("flat", "rigid sphere on a Boussinesq box", PressSphere(EScene::SphereOnFlat, true, opt.quick), "two-pass", &out);
+  if (StopRequested()) return out;
   Judge("flat", "rigid sphere on a Boussinesq box", PressSphere(EScene::SphereOnFlat, false, opt.quick), "one-pass",
         &out);
   return out;

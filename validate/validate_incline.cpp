@@ -12,6 +12,7 @@
 #include "scene/code_scenes.h"
 #include "validate/validation_util.h"
 #include "core/world.h"
+#include "session/console.h"
 
 namespace gs::app {
 namespace {
@@ -71,7 +72,7 @@ InclineRun RunIncline(double angle, double mu, ESurface surface, double seconds,
   b.pose = Pose{plane.R, plane.Apply(Vec3(uphill, 0, 0.0203))};
   const int block = AddBody(w, b);
   w.Finalize();
-  for (int i = 0; i < 500; ++i) w.Step();
+  for (int i = 0; i < 500 && !StopRequested(); ++i) w.Step();
   w.SetFriction(block, surface_body, mu);
   const Vec3 slope = plane.R.col(0);  // downhill for a rotation about +y
   const Vec3 x0 = w.bodies[block].pose.t;
@@ -80,6 +81,7 @@ InclineRun RunIncline(double angle, double mu, ESurface surface, double seconds,
   const int steps = static_cast<int>(std::lround(seconds / w.params.dt));
   for (int i = 0; i < steps; ++i) {
     w.Step();
+    if (StopRequested()) break;  // Ctrl-C: the case ends here, reported as interrupted
     r.finite &= w.bodies[block].pose.t.allFinite();
   }
   const double s = (w.bodies[block].pose.t - x0).dot(slope);
@@ -119,9 +121,11 @@ std::vector<ValidationResult> ValidateIncline(const ValidationOptions& opt) {
   const std::vector<double> factors =
       opt.quick ? std::vector<double>{0.99, 1.01} : std::vector<double>{0.9, 0.99, 1.01, 1.1};
   for (double mu : {0.4, 0.8})
-    for (double f : factors) out.push_back(Judge(f, mu, ESurface::Plane, opt.quick));
+    for (double f : factors)
+      if (!StopRequested()) out.push_back(Judge(f, mu, ESurface::Plane, opt.quick));
   for (ESurface s : {ESurface::SlabTwoPass, ESurface::SlabOnePass})
-    for (double f : factors) out.push_back(Judge(f, 0.4, s, opt.quick));
+    for (double f : factors)
+      if (!StopRequested()) out.push_back(Judge(f, 0.4, s, opt.quick));
   return out;
 }
 

@@ -9,6 +9,7 @@
 #include "scene/scene_file.h"
 #include "validate/validation_util.h"
 #include "core/world.h"
+#include "session/console.h"
 
 namespace gs::app {
 
@@ -35,6 +36,7 @@ std::vector<ValidationResult> ValidatePaperGrasp(const ValidationOptions& opt) {
   while (w.time < end - 0.5 * w.params.dt) {
     built->script.Apply(w, w.time + w.params.dt);
     w.Step();
+    if (StopRequested()) break;  // Ctrl-C: the case ends here, reported as interrupted
     ++steps;
     residual_max = std::max(residual_max, w.profile.residual);
     unconverged += w.profile.converged ? 0 : 1;

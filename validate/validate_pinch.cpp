@@ -15,6 +15,7 @@
 #include "scene/code_scenes.h"
 #include "validate/validation_util.h"
 #include "core/world.h"
+#include "session/console.h"
 
 namespace gs::app {
 
@@ -101,6 +102,7 @@ PinchRun RunPinch(const PinchCase& pc, double mu_factor, double lift_time, doubl
       w.bodies[rig.tips[k]].drive.target.t.z() += rise;
     }
     w.Step();
+    if (StopRequested()) break;  // Ctrl-C: the case ends here, reported as interrupted
     double tip_z = 0.0;
     for (int k : rig.tips) tip_z += w.bodies[k].pose.t.z() / 3.0;
     const double rel = w.bodies[obj].pose.t.z() - tip_z;
@@ -161,10 +163,10 @@ std::vector<ValidationResult> ValidatePinch(const ValidationOptions& opt) {
     // the default mode on both shapes, and one-pass on the prism: soft, sparse
     for (const PinchCase& pc : {PinchCase{false, false, false, true}, PinchCase{true, false, false, true},
                                 PinchCase{false, false, false, false}})
-      AddCase(pc, true, &out);
+      if (!StopRequested()) AddCase(pc, true, &out);
     return out;
   }
-  for (int mask = 0; mask < 16; ++mask)
+  for (int mask = 0; mask < 16 && !StopRequested(); ++mask)
     AddCase(PinchCase{(mask & 1) != 0, (mask & 2) != 0, (mask & 4) != 0, (mask & 8) == 0}, false, &out);
   return out;
 }

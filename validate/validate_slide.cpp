@@ -22,6 +22,7 @@
 
 #include "validate/validation_util.h"
 #include "core/world.h"
+#include "session/console.h"
 
 namespace gs::app {
 
@@ -126,6 +127,7 @@ SlideRun RunSlide(bool two_pass, bool rigid, double window) {
     w.bodies[tip].drive.target = start;
     w.bodies[tip].drive.target.t.x() += x;
     w.Step();
+    if (StopRequested()) break;  // Ctrl-C: the case ends here, reported as interrupted
     const Vec3 f = ForceOn(w, tip);
     r.finite &= f.allFinite();
     if (t < kSettle + kRamp + 0.5 * w.params.dt) continue;
@@ -150,7 +152,7 @@ std::vector<ValidationResult> ValidateSlide(const ValidationOptions& opt) {
   std::vector<ValidationResult> out;
   const double window = opt.quick ? 0.5 : 1.5;  // 1 or 3 cm of sliding (3 to 10 control-point spacings)
   for (int rigid = 0; rigid < 2; ++rigid) {
-    for (int two_pass = 1; two_pass >= 0; --two_pass) {
+    for (int two_pass = 1; two_pass >= 0 && !StopRequested(); --two_pass) {
       const SlideRun s = RunSlide(two_pass != 0, rigid != 0, window);
       char d[400];
       std::snprintf(d, sizeof d,

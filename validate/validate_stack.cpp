@@ -13,6 +13,7 @@
 #include "scene/code_scenes.h"
 #include "validate/validation_util.h"
 #include "core/world.h"
+#include "session/console.h"
 
 namespace gs::app {
 namespace {
@@ -68,6 +69,7 @@ StackRun RunStack(double ratio, double scale, double settle, double seconds, int
       bottom0 = w.bodies[bottom].pose.t;
     }
     w.Step();
+    if (StopRequested()) break;  // Ctrl-C: the case ends here, reported as interrupted
     r.top.push_back(w.bodies[top].pose.t);
     r.bottom.push_back(w.bodies[bottom].pose.t);
     r.sweeps.push_back(w.profile.iterations);
@@ -122,6 +124,7 @@ std::vector<ValidationResult> ValidateStack(const ValidationOptions& opt) {
   const double seconds = opt.quick ? 0.7 : 10.0;
   std::vector<ValidationResult> out;
   for (const StackCase& c : kStackCases) {
+    if (StopRequested()) break;
     const StackRun r = RunStack(c.ratio, 1.0, settle, seconds, c.cap);
     char name[64], d[320];
     std::snprintf(name, sizeof name, "stack_ratio_%g", c.ratio);
@@ -146,8 +149,10 @@ std::vector<ValidationResult> ValidateScale(const ValidationOptions& opt) {
   const double ratio = 1.0;
   const StackRun base = RunStack(ratio, 1.0, settle, seconds, 100);
   std::vector<ValidationResult> out;
+  if (StopRequested()) return out;
   for (const double k : {8.0, 1024.0, 10.0, 1000.0}) {
     const StackRun s = RunStack(ratio, k, settle, seconds, 100);
+    if (StopRequested()) break;  // a run cut short has fewer steps than the base to compare
     const double gap = TrajectoryGap(base, s);
     const int mismatches = SweepMismatches(base, s);
     const double limit = std::exp2(std::round(std::log2(k))) == k ? 0.0 : 1e-8;

@@ -1,8 +1,10 @@
 // The registry of validation families: each family lives in its own file
-// (app/validate_<family>.cpp) and is listed here once.
+// (validate/validate_<family>.cpp) and is listed here once.
 #include "validate/validation.h"
 
 #include <algorithm>
+
+#include "session/console.h"
 
 namespace gs::app {
 namespace {
@@ -35,6 +37,7 @@ bool RunValidation(const std::string& name, const ValidationOptions& opt, std::v
   for (const Family& f : kFamilies) {
     if (name != "all" && name != f.name) continue;
     known = true;
+    if (StopRequested()) break;  // the families after a stop request are not run
     std::vector<ValidationResult> v = f.run(opt);
     out->insert(out->end(), v.begin(), v.end());
   }

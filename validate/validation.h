@@ -15,6 +15,7 @@ struct ValidationResult {
   std::string unit;
   std::string detail;      ///< what was measured, in words
   std::string contact_mode;  ///< "two-pass" or "one-pass" where the case depends on it, else empty
+  bool interrupted = false;  ///< stopped by Ctrl-C or SIGTERM before its end: no verdict (pass is false)
 };
 
 struct ValidationOptions {
@@ -49,7 +50,9 @@ std::vector<ValidationResult> ValidateScale(const ValidationOptions& opt);
 
 /// Names accepted by `graspsim validate`.
 std::vector<std::string> ValidationNames();
-/// Runs one by name ("all" for every one); false when the name is unknown.
+/// Runs one by name ("all" for every one); false when the name is unknown. Once a
+/// stop is requested (session/console.h) the case running is cut short and comes
+/// back marked interrupted, and no further case or family is run.
 bool RunValidation(const std::string& name, const ValidationOptions& opt, std::vector<ValidationResult>* out);
 
 }  // namespace gs::app
