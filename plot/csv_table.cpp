@@ -53,6 +53,11 @@ bool CsvTable::Read(const std::string& path, const std::function<bool(const std:
                std::to_string(header_.size()) + (in.eof() ? " (the file ends inside this line: truncated?)" : "");
       return false;
     }
+    // run and replay end every line: a last line without its end was cut short, maybe inside a number
+    if (in.eof()) {
+      *error = At(path, n) + "the file ends inside this line (truncated?)";
+      return false;
+    }
     for (size_t k = 0; k < kept_fields_.size(); ++k) cells_[k].push_back(std::move(f[kept_fields_[k]]));
     line_.push_back(n);
     ++rows_;
