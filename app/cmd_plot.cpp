@@ -3,6 +3,7 @@
 // "Plotting a result"). The figures the folder cannot give are named with the
 // reason; a folder that is no result, or a malformed file in it, is refused.
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 
 #include "app/commands.h"
@@ -11,7 +12,7 @@
 namespace gs::app {
 namespace {
 
-constexpr int kExitNoGnuplot = 4;  // as `bench tradeoff --plot` without gnuplot
+constexpr int kExitGnuplot = 4;  // gnuplot missing or failing, as for `bench tradeoff --plot`
 
 struct PlotOptions {
   std::string dir;
@@ -57,7 +58,7 @@ int Plot(const PlotOptions& opt) {
     Report(plots, "", {}, true);
     return kExitBadInput;
   }
-  const std::string out = opt.out.empty() ? opt.dir + "/plots" : opt.out;
+  const std::string out = opt.out.empty() ? (std::filesystem::path(opt.dir) / "plots").string() : opt.out;
   std::vector<std::string> written;
   switch (plot::WriteFigures(plots, out, width, height, &written, &error)) {
     case plot::EWriteResult::Ok:
@@ -67,13 +68,11 @@ int Plot(const PlotOptions& opt) {
       std::fprintf(stderr, "graspsim plot: %s\n", error.c_str());
       return kExitUsage;
     case plot::EWriteResult::NoGnuplot:
-      std::fprintf(stderr, "graspsim plot: %s\n", error.c_str());
-      return kExitNoGnuplot;
     case plot::EWriteResult::GnuplotFailed:
       break;
   }
   std::fprintf(stderr, "graspsim plot: %s\n", error.c_str());
-  return kExitFailure;
+  return kExitGnuplot;
 }
 
 }  // namespace

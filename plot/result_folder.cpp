@@ -69,6 +69,11 @@ bool LoadFolder(const std::string& dir, Folder* f, std::string* error) {
   f->dir = dir;
   f->has_tracker = fs::is_regular_file(f->Path("tracker.csv"), ec);
   f->has_summary = fs::exists(f->Path("summary.json"), ec);
+  // a FIFO or a folder under a file's name would block or mislead the reader
+  if (f->has_summary && !fs::is_regular_file(f->Path("summary.json"), ec)) {
+    *error = f->Path("summary.json") + ": not a regular file";
+    return false;
+  }
   if (f->has_summary && !ReadSummary(f->Path("summary.json"), &f->summary, error)) return false;
   return ReadTable(*f, "trajectory.csv",
                    [](const std::string& c) { return OneOf(c, {"step", "t_s"}) || EndsWith(c, "_z_m"); },

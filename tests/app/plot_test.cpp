@@ -4,6 +4,7 @@
 // bad folders, malformed files and bad options are refused with the file or
 // option named, the documented exit code, and nothing left behind.
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -321,6 +322,34 @@ TEST(PlotCli, WithoutGnuplotAClearMessageAndNoFolder) {
   EXPECT_NE(r.output.find("gnuplot is not installed (Debian: apt-get install gnuplot-nox"), std::string::npos)
       << r.output;
   EXPECT_FALSE(fs::exists(out));
+}
+
+// a gnuplot that fails, or that exits 0 and draws nothing: exit 4, and the
+// folders made for the figures are gone again
+TEST(PlotCli, AFailingGnuplotLeavesNothingBehind) {
+  const std::string bin = Root() + "/fake_bin";
+  fs::create_directories(bin);
+  for (const auto& [script, says] : {std::pair<const char*, const char*>{"echo boom >&2; exit 1", "failed on "},
+                                     {"exit 0", "gnuplot wrote no height.png"}}) {
+    std::ofstream(bin + "/gnuplot") << "#!/bin/sh\n" << script << "\n";
+    fs::permissions(bin + "/gnuplot", fs::perms::owner_all);
+    const std::string out = Root() + "/fake_out/a";
+    const Result r = Sh("PATH=" + bin + ":$PATH " + Bin() + " plot " + RunFolder() + " --out " + out);
+    EXPECT_EQ(r.code, 4) << r.output;
+    EXPECT_NE(r.output.find(says), std::string::npos) << r.output;
+    EXPECT_FALSE(fs::exists(Root() + "/fake_out")) << r.output;
+  }
+}
+
+TEST(PlotCli, AFifoInThePlaceOfAFileIsRefusedNotWaitedOn) {
+  for (const char* file : {"summary.json", "contacts.csv"}) {
+    const std::string dir = CopyOfRun(std::string("fifo_") + file);
+    fs::remove(dir + "/" + file);
+    ASSERT_EQ(mkfifo((dir + "/" + file).c_str(), 0600), 0);
+    const Result r = Sh(Bin() + " plot " + dir);
+    EXPECT_EQ(r.code, 3) << r.output;
+    EXPECT_NE(r.output.find(dir + "/" + file + ": not a regular file"), std::string::npos) << r.output;
+  }
 }
 
 // ---- the series behind the figures (plot/result_plots.h) ----
