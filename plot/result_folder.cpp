@@ -121,7 +121,7 @@ bool AddHeight(const Folder& f, ResultPlots* plots, std::string* error) {
     return true;
   }
   const CsvTable& t = *f.trajectory;
-  Figure fig{kHeightPng, "", "simulated time (s)", "height z (mm)", {}, {}, NAN, ""};
+  Figure fig{kHeightPng, "", "simulated time (s)", "height of its centre, z (mm)", {}, {}, NAN, ""};
   int tc;
   if (!NeedTime(t, &tc, error) || !t.Numbers(tc, &fig.x, error)) return false;
   std::vector<std::string> bodies;
@@ -250,7 +250,7 @@ void AddGripFromContacts(const Folder& f, const ContactSteps& cs, ResultPlots* p
   }
   Figure fig{kGripForcePng, "", "simulated time (s)", "normal force (N)", Grid(cs), {}, NAN, ""};
   fig.title = Subject(f) + ": " +
-              (object.empty() ? std::string("normal force per body pair") : "normal force on " + object + " per body");
+              (object.empty() ? std::string("normal force per body pair") : "normal force on " + object + " from each body touching it");
   for (const std::string& p : cs.pairs) fig.series.push_back({p, OnGrid(cs, cs.fn.at(p))});
   plots->figures.push_back(std::move(fig));
 }
