@@ -249,8 +249,8 @@ void AddGripFromContacts(const Folder& f, const ContactSteps& cs, ResultPlots* p
     return;
   }
   Figure fig{kGripForcePng, "", "simulated time (s)", "normal force (N)", Grid(cs), {}, NAN, ""};
-  fig.title = Subject(f) + ": " +
-              (object.empty() ? std::string("normal force per body pair") : "normal force on " + object + " from each body touching it");
+  fig.title = Subject(f) + ": normal force " +
+              (object.empty() ? std::string("per body pair") : "on " + object + " from each body touching it");
   for (const std::string& p : cs.pairs) fig.series.push_back({p, OnGrid(cs, cs.fn.at(p))});
   plots->figures.push_back(std::move(fig));
 }

@@ -251,7 +251,8 @@ void ExpectRefused(const std::string& name, const std::string& file, int line,
 
 TEST(PlotCli, AMalformedCsvIsRefusedWithItsFileAndLine) {
   // a line cut to 6 of contacts.csv's 12 fields
-  ExpectRefused("short_line", "contacts.csv", 57, [](std::vector<std::string>* l) { (*l)[56] = "56,0.056,table,box,800,9"; },
+  ExpectRefused("short_line", "contacts.csv", 57,
+                [](std::vector<std::string>* l) { (*l)[56] = "56,0.056,table,box,800,9"; },
                 "6 fields where the header (line 1) has 12");
   // a word where total_ms holds a number
   ExpectRefused("not_a_number", "timings.csv", 20, [](std::vector<std::string>* l) {
