@@ -25,6 +25,7 @@ int main(int argc, char** argv) {
   gs::app::AddReplayCommand(app, &exit_code);
   gs::app::AddLiveCommand(app, &exit_code);
   gs::app::AddStressCommand(app, &exit_code);
+  gs::app::AddPlotCommand(app, &exit_code);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -22,6 +22,7 @@
 #include "bench/tradeoff.h"
 #include "core/fc_problem.h"
 #include "core/world.h"
+#include "plot/gnuplot.h"
 #include "session/console.h"
 
 namespace gs::app {
@@ -538,10 +539,7 @@ std::string CsvField(const std::string& s) {
   return o + "\"";
 }
 
-constexpr const char* kNoGnuplot =
-    "gnuplot is not installed (Debian: apt-get install gnuplot-nox, or run scripts/setup.sh), so no PNG plots";
-
-bool GnuplotFound() { return std::system("command -v gnuplot >/dev/null 2>&1") == 0; }
+std::string NoGnuplot() { return std::string(plot::kGnuplotMissing) + ", so no PNG plots"; }
 
 }  // namespace
 
@@ -612,8 +610,8 @@ bool WriteTradeoffOutputs(const std::string& dir, const std::vector<TradeoffRow>
     *error = "cannot write " + csv;
     return false;
   }
-  if (!GnuplotFound()) {
-    *error = std::string(kNoGnuplot) + ": wrote " + csv + " but no PNG plots";
+  if (!plot::GnuplotFound()) {
+    *error = NoGnuplot() + ": wrote " + csv + " but no PNG plots";
     return false;
   }
   // one data file and one plot per series; rows sorted by error so that the front is a line
@@ -672,18 +670,7 @@ bool WriteTradeoffOutputs(const std::string& dir, const std::vector<TradeoffRow>
     written.push_back(png);
   }
   std::fclose(gp);
-  const std::string cmd = "gnuplot '" + script + "' 2>&1";
-  FILE* p = popen(cmd.c_str(), "r");
-  std::string out;
-  if (p) {
-    char buf[512];
-    while (std::fgets(buf, sizeof buf, p)) out += buf;
-  }
-  const int rc = p ? pclose(p) : -1;
-  if (rc != 0) {
-    *error = "gnuplot failed on " + script + (out.empty() ? std::string() : ": " + out);
-    return false;
-  }
+  if (!plot::RunGnuplot(script, error)) return false;
   if (pngs) *pngs = written;
   return true;
 }
@@ -715,8 +702,8 @@ int RunBenchTradeoff(const BenchOptions& opt) {
       return 4;
     }
     std::fclose(f);
-    if (!GnuplotFound())
-      std::fprintf(stderr, "graspsim bench tradeoff: %s; only the CSV will be written\n", kNoGnuplot);
+    if (!plot::GnuplotFound())
+      std::fprintf(stderr, "graspsim bench tradeoff: %s; only the CSV will be written\n", NoGnuplot().c_str());
   }
   const double t0 = Now();
   if (!opt.json)
