@@ -31,7 +31,8 @@ class HelpFormatter : public CLI::Formatter {
   }
 
   std::string make_option_name(const CLI::Option* opt, bool is_positional) const override {
-    return is_positional ? Metavar(opt) : CLI::Formatter::make_option_name(opt, false);
+    if (!is_positional) return CLI::Formatter::make_option_name(opt, false);
+    return Metavar(opt) + (opt->get_expected_max() >= CLI::detail::expected_max_vector_size ? "..." : "");
   }
 
   // a positional's metavar is its name in the list; its default goes to the description

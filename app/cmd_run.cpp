@@ -188,7 +188,7 @@ void AddRunCommand(CLI::App& app, int* exit_code) {
                   "the paper's box grasp (close, lift, hold, release): its timing tables beside the paper's, "
                   "the output files in out/ and an H.264 video"},
                  {"graspsim run config/tracked_hand.yaml --duration 0.5 --frames frames/ --fps 10",
-                  "half a simulated second of the lighter scene, five PNG frames in frames/"}},
+                  "half a simulated second of the lighter scene, a PNG frame every 0.1 simulated seconds in frames/"}},
                 {{kExitOk, "the run finished and no body passed through another"},
                  {kExitFailure, "a body passed through another (those steps were rejected), or an output file "
                                 "could not be written"},

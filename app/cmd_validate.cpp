@@ -3,6 +3,7 @@
 #include <cstdio>
 #include <memory>
 
+#include "app/cli_help.h"
 #include "app/commands.h"
 #include "validate/validation.h"
 
@@ -31,12 +32,21 @@ void AddValidateCommand(CLI::App& app, int* exit_code) {
     ValidationOptions v;
   };
   auto opt = std::make_shared<Opt>();
-  std::string names = "all";
-  for (const std::string& n : ValidationNames()) names += "|" + n;
+  std::string names;
+  for (const std::string& n : ValidationNames()) names += ", " + n;
   CLI::App* cmd = app.add_subcommand("validate", "Validation scenes with known answers; prints error and pass/fail");
-  cmd->add_option("name", opt->name, names)->capture_default_str();
+  cmd->add_option("name", opt->name, "all, or one family of cases: " + names.substr(2))
+      ->type_name("CASE")
+      ->capture_default_str();
   cmd->add_flag("--json", opt->json, "one JSON object per case: name, error, pass");
   cmd->add_flag("--quick", opt->v.quick, "shorter holds and coarser sampling");
+  SetHelpFooter(cmd,
+                {{"graspsim validate incline --quick", "the incline cases (stick and slip on a slope), shortened"},
+                 {"graspsim validate --json", "every family (it takes minutes), one JSON object per case"}},
+                {{kExitOk, "every case passed"},
+                 {kExitFailure, "a case failed: its error is over its bound (the FAIL lines)"},
+                 {kExitUsage, "bad command line, or an unknown CASE (the families are printed)"},
+                 {kExitInterrupted, "interrupted (Ctrl-C)"}});
   cmd->callback([opt, exit_code]() {
     const std::vector<std::string> families = ValidationNames();
     const bool known = opt->name == "all" || std::find(families.begin(), families.end(), opt->name) != families.end();
