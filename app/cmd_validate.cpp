@@ -41,7 +41,7 @@ void AddValidateCommand(CLI::App& app, int* exit_code) {
   cmd->add_flag("--json", opt->json, "one JSON object per case: name, error, pass");
   cmd->add_flag("--quick", opt->v.quick, "shorter holds and coarser sampling");
   SetHelpFooter(cmd,
-                {{"graspsim validate incline --quick", "the incline cases (stick and slip on a slope), shortened"},
+                {{"graspsim validate slide --quick", "the sliding cases (friction over normal force while sliding, against mu), shortened"},
                  {"graspsim validate --json", "every family (it takes minutes), one JSON object per case"}},
                 {{kExitOk, "every case passed"},
                  {kExitFailure, "a case failed: its error is over its bound (the FAIL lines)"},
