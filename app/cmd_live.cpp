@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <memory>
 
+#include "app/cli_help.h"
 #include "app/commands.h"
 #include "session/live_loop.h"
 #include "scene/paths.h"
@@ -138,20 +139,29 @@ int Live(const LiveCmd& c) {
 void AddLiveCommand(CLI::App& app, int* exit_code) {
   auto c = std::make_shared<LiveCmd>();
   CLI::App* cmd = app.add_subcommand("live", "Run the fixed-rate simulation on live DTrack input, publishing on LCM");
-  cmd->add_option("scene", c->scene, "scene file with a tracker section")->capture_default_str();
-  cmd->add_option("--port", c->port, "UDP port (default: the scene's tracker.port)")->check(CLI::Range(0, 65535));
-  cmd->add_option("--multicast", c->multicast, "join this multicast group");
-  cmd->add_option("--allow", c->allow, "accept datagrams only from these IPv4 addresses");
-  cmd->add_option("--controller", c->controller, "send the DTrack firewall nudge to this Controller (UDP 50107)");
-  cmd->add_option("--duration", c->duration, "stop after this many seconds (default: Ctrl-C)")->check(CLI::PositiveNumber);
+  cmd->add_option("scene", c->scene, "a scene with a tracker section (docs/tracking.md)")
+      ->type_name("SCENE.yaml")
+      ->capture_default_str();
+  cmd->add_option("--port", c->port, "UDP port (default: the scene's tracker.port)")
+      ->type_name("PORT")
+      ->check(IntInRange(0, 65535, "a UDP port"));
+  cmd->add_option("--multicast", c->multicast, "join this multicast group")->type_name("GROUP");
+  cmd->add_option("--allow", c->allow, "accept datagrams only from these IPv4 addresses")->type_name("ADDRESS");
+  cmd->add_option("--controller", c->controller, "send the DTrack firewall nudge to this Controller (UDP 50107)")
+      ->type_name("ADDRESS");
+  cmd->add_option("--duration", c->duration, "stop after this many seconds (default: at Ctrl-C)")
+      ->type_name("SECONDS")
+      ->check(Positive("number of seconds"));
   cmd->add_option("--publish-rate", c->publish_rate, "LCM poses and contacts per second (0: none; default: the scene's)")
-      ->check(CLI::Range(0.0, 1e5));
-  cmd->add_option("--lcm-url", c->lcm_url, "LCM URL (default: the scene's, else LCM's default udpm)");
+      ->type_name("HZ")
+      ->check(InRange(0.0, 1e5, "a rate in messages per second"));
+  cmd->add_option("--lcm-url", c->lcm_url, "LCM URL (default: the scene's, else LCM's default udpm)")->type_name("URL");
   cmd->add_flag("--quiet", c->quiet, "no status line");
   cmd->add_option("--rt-priority", c->rt_priority,
                   "SCHED_FIFO priority of the simulation thread, 0 for normal scheduling (needs CAP_SYS_NICE; a "
                   "refusal is said and live goes on)")
-      ->check(CLI::Range(0, 99))
+      ->type_name("N")
+      ->check(IntInRange(0, 99, "a SCHED_FIFO priority"))
       ->capture_default_str();
   cmd->add_flag("--skip-late-solves", c->skip_late_solves,
                "a step whose stages before the solve left no time for a sweep keeps the last forces instead of "
@@ -159,20 +169,34 @@ void AddLiveCommand(CLI::App& app, int* exit_code) {
   cmd->add_option("--step-budget", c->step_budget,
                   "each step has this fraction of the timestep and ends at most as far into its slot: the solver "
                   "stops sweeping early, and the step is counted as a budget stop (0: no limit)")
-      ->check(CLI::Range(0.0, 10.0))
+      ->type_name("FRACTION")
+      ->check(InRange(0.0, 10.0, "a fraction of the timestep"))
       ->capture_default_str();
   cmd->add_option("--lead-steps", c->lead_steps,
                   "a step may begin this many timesteps before its own slot, so that a long step uses what the "
                   "steps before it left over (deadlines unchanged: step k ends by (k+1) dt; 0: each step has its "
                   "slot only)")
-      ->check(CLI::Range(0, 10))
+      ->type_name("N")
+      ->check(IntInRange(0, 10, "a whole number of timesteps"))
       ->capture_default_str();
   CLI::Option* cpu = cmd->add_option("--cpu", c->cpu,
                                      "the simulation thread's core; rendering runs on the others (-1: anywhere; "
                                      "without --cpu, the lowest core no other graspsim loop runs on, from 0)")
-                         ->check(CLI::Range(-1, 1023))
+                         ->type_name("CORE")
+                         ->check(IntInRange(-1, 1023, "a core number"))
                          ->capture_default_str();
   AddRenderOptions(cmd, &c->render);
+  SetHelpFooter(cmd,
+                {{"graspsim live config/tracked_hand.yaml --duration 10",
+                  "ten seconds at 1 kHz on UDP port 5000; once it prints 'live: listening on UDP port 5000', run "
+                  "graspsim send --synthetic --port 5000 in another terminal"},
+                 {"graspsim live --video live.mp4 --lcm-url 'file:///tmp/live.lcmlog?mode=w'",
+                  "until Ctrl-C, with a video and the LCM messages written to a log file"}},
+                {{kExitOk, "the session ended (--duration or Ctrl-C) and its summary is printed"},
+                 {kExitFailure, "the video could not be finished"},
+                 {kExitUsage, "bad command line, or a render option that cannot be met"},
+                 {kExitBadInput, "the scene was refused (or has no tracker section), or the UDP port cannot be "
+                                 "opened"}});
   cmd->callback([c, cpu, exit_code]() {
     c->cpu_given = cpu->count() > 0;
     *exit_code = Live(*c);

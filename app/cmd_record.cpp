@@ -7,6 +7,7 @@
 #include <mutex>
 #include <thread>
 
+#include "app/cli_help.h"
 #include "app/commands.h"
 #include "session/tracker_app.h"
 #include "tracking/session_log.h"
@@ -94,20 +95,35 @@ int Record(const RecordOptions& opt) {
 void AddRecordCommand(CLI::App& app, int* exit_code) {
   auto opt = std::make_shared<RecordOptions>();
   CLI::App* cmd = app.add_subcommand("record", "Record DTrack UDP datagrams, raw with arrival times, to an LCM log");
-  cmd->add_option("--port", opt->udp.port, "UDP port the tracker sends to (0: any free port)")
+  cmd->add_option("--port", opt->udp.port, "UDP port the tracker sends to (0: any free port, printed)")
+      ->type_name("PORT")
       ->required()
-      ->check(CLI::Range(0, 65535));
-  cmd->add_option("-o,--out", opt->out, "the LCM event log to write (FILE.lcmlog)")->required();
-  cmd->add_option("--duration", opt->duration, "stop after this many seconds (default: Ctrl-C)")
-      ->check(CLI::PositiveNumber);
-  cmd->add_option("--multicast", opt->udp.multicast_group, "join this multicast group (e.g. 224.0.1.0)");
-  cmd->add_option("--allow", opt->udp.allowed_senders, "accept datagrams only from these IPv4 addresses");
+      ->check(IntInRange(0, 65535, "a UDP port"));
+  cmd->add_option("-o,--out", opt->out, "the LCM event log to write")->type_name("FILE.lcmlog")->required();
+  cmd->add_option("--duration", opt->duration, "stop after this many seconds (default: at Ctrl-C)")
+      ->type_name("SECONDS")
+      ->check(Positive("number of seconds"));
+  cmd->add_option("--multicast", opt->udp.multicast_group, "join this multicast group (e.g. 224.0.1.0)")
+      ->type_name("GROUP");
+  cmd->add_option("--allow", opt->udp.allowed_senders, "accept datagrams only from these IPv4 addresses")
+      ->type_name("ADDRESS");
   cmd->add_option("--controller", opt->udp.controller,
-                  "send the DTrack firewall nudge to this Controller address (UDP 50107)");
+                  "send the DTrack firewall nudge to this Controller address (UDP 50107)")
+      ->type_name("ADDRESS");
   cmd->add_option("--rcvbuf", opt->udp.socket_buffer_bytes,
                   "socket receive buffer in bytes (default 4 MiB; beyond net.core.rmem_max only as root)")
-      ->check(CLI::Range(4096, 1 << 30));
+      ->type_name("BYTES")
+      ->check(IntInRange(4096, 1 << 30, "a buffer size in bytes"));
   cmd->add_flag("--quiet", opt->quiet, "no status line");
+  SetHelpFooter(cmd,
+                {{"graspsim record --port 5000 -o session.lcmlog --duration 5",
+                  "five seconds of what arrives on UDP port 5000 (start graspsim send --synthetic --port 5000 in "
+                  "another terminal to try it)"},
+                 {"graspsim record --port 5000 -o session.lcmlog", "until Ctrl-C, which ends the recording cleanly"}},
+                {{kExitOk, "the recording ended (--duration or Ctrl-C) and every datagram received was written"},
+                 {kExitFailure, "a datagram could not be written to the log"},
+                 {kExitUsage, "bad command line"},
+                 {kExitBadInput, "the log cannot be created, or the UDP port cannot be opened"}});
   cmd->callback([opt, exit_code]() { *exit_code = Record(*opt); });
 }
 

@@ -12,6 +12,7 @@
 #include <sstream>
 #include <thread>
 
+#include "app/cli_help.h"
 #include "app/commands.h"
 #include "scene/paths.h"
 #include "session/frame_recorder.h"
@@ -289,15 +290,35 @@ int Replay(const ReplayOptions& opt) {
 void AddReplayCommand(CLI::App& app, int* exit_code) {
   auto opt = std::make_shared<ReplayOptions>();
   CLI::App* cmd = app.add_subcommand(
-      "replay", "Replay a recorded tracker session headless, deterministic (scene default: config/tracked_hand.yaml)");
-  cmd->add_option("args", opt->args, "[SCENE] FILE.lcmlog")->required()->expected(1, 2);
-  cmd->add_option("--out", opt->out, "output folder: trajectory.csv, fingertips.csv, tracker.csv, summary.json");
+      "replay", "Replay a recorded tracker session headless and deterministically (default scene "
+                "config/tracked_hand.yaml)");
+  cmd->add_option("args", opt->args,
+                  "the session log, after the scene to replay it in (default config/tracked_hand.yaml)")
+      ->type_name("[SCENE.yaml] FILE.lcmlog")
+      ->required()
+      ->expected(1, 2);
+  cmd->add_option("--out", opt->out, "write trajectory.csv, fingertips.csv, tracker.csv and summary.json into DIR")
+      ->type_name("DIR");
   cmd->add_flag("--realtime", opt->realtime, "at the recorded pace instead of as fast as possible");
   cmd->add_option("--duration", opt->duration, "simulated seconds (default: the session plus --tail)")
-      ->check(CLI::PositiveNumber);
-  cmd->add_option("--tail", opt->tail, "seconds simulated after the last datagram")->check(CLI::Range(0.0, 1e6));
+      ->type_name("SECONDS")
+      ->check(Positive("number of seconds"));
+  cmd->add_option("--tail", opt->tail, "simulated seconds after the last datagram (default 0.5)")
+      ->type_name("SECONDS")
+      ->check(InRange(0.0, 1e6, "a number of seconds"));
   cmd->add_flag("--quiet", opt->quiet, "no progress bar");
   AddRenderOptions(cmd, &opt->render);
+  SetHelpFooter(cmd,
+                {{"graspsim replay assets/demo_session.lcmlog --out out/",
+                  "the demo session in config/tracked_hand.yaml; the same files on every run"},
+                 {"graspsim replay config/tracked_hand.yaml assets/demo_session.lcmlog --video replay.mp4",
+                  "the same with an H.264 video"}},
+                {{kExitOk, "the session was replayed to its end"},
+                 {kExitFailure, "an output file or the video could not be written"},
+                 {kExitUsage, "bad command line, or a render option that cannot be met (odd --size for --video, no "
+                              "ffmpeg)"},
+                 {kExitBadInput, "the scene or the session log was refused (or the log holds no datagrams)"},
+                 {kExitInterrupted, "interrupted (Ctrl-C or SIGTERM): the outputs up to then are written"}});
   cmd->callback([opt, exit_code]() { *exit_code = Replay(*opt); });
 }
 

@@ -6,6 +6,7 @@
 #include <memory>
 #include <sstream>
 
+#include "app/cli_help.h"
 #include "app/commands.h"
 #include "fclib/fclib_io.h"
 #include "scene/paths.h"
@@ -199,19 +200,39 @@ int Run(const RunOptions& opt) {
 void AddRunCommand(CLI::App& app, int* exit_code) {
   auto opt = std::make_shared<RunOptions>();
   CLI::App* run = app.add_subcommand("run", "Run a scene headless as fast as possible (default: the paper's box grasp)");
-  run->add_option("scene", opt->scene, "scene file (YAML)")->capture_default_str();
+  run->add_option("scene", opt->scene, "the scene file to run (docs/scene-format.md)")
+      ->type_name("SCENE.yaml")
+      ->capture_default_str();
   run->add_option("--out", opt->out,
-                  "output folder for trajectory.csv, contacts.csv, timings.csv and summary.json (README: Output files)");
-  run->add_option("--every", opt->every, "with --out: trajectory.csv and contacts.csv every Nth step")
-      ->check(CLI::PositiveNumber);
-  run->add_option("--duration", opt->duration, "simulated seconds (default: the scene's duration_s)")
-      ->check(CLI::PositiveNumber);
+                  "write trajectory.csv, contacts.csv, timings.csv and summary.json into DIR (README: Output files)")
+      ->type_name("DIR");
+  run->add_option("--every", opt->every, "with --out: trajectory.csv and contacts.csv every Nth step (default 1)")
+      ->type_name("N")
+      ->check(PositiveInt("number of steps"));
+  run->add_option("--duration", opt->duration, "simulated seconds to run (default: the scene's duration_s)")
+      ->type_name("SECONDS")
+      ->check(Positive("number of seconds"));
   run->add_option("--export-fclib", opt->export_fclib,
-                  "write every step's contact problem (and its solution) as FCLIB files step_NNNNNN.hdf5 into DIR");
-  run->add_option("--export-every", opt->export_every, "with --export-fclib: every Nth step only")
-      ->check(CLI::PositiveNumber);
+                  "write every step's contact problem (and its solution) as FCLIB files DIR/step_NNNNNN.hdf5")
+      ->type_name("DIR");
+  run->add_option("--export-every", opt->export_every, "with --export-fclib: every Nth step only (default 1)")
+      ->type_name("N")
+      ->check(PositiveInt("number of steps"));
   run->add_flag("--quiet", opt->quiet, "no progress lines");
   AddRenderOptions(run, &opt->render);
+  SetHelpFooter(run,
+                {{"graspsim run config/paper_box_grasp.yaml --out out/ --video grasp.mp4",
+                  "the paper's box grasp (close, lift, hold, release): its timing tables beside the paper's, "
+                  "the output files in out/ and an H.264 video"},
+                 {"graspsim run config/tracked_hand.yaml --duration 0.5 --frames frames/ --fps 10",
+                  "half a simulated second of the lighter scene, a PNG frame every 0.1 simulated seconds in frames/"}},
+                {{kExitOk, "the run finished and no body passed through another"},
+                 {kExitFailure, "a body passed through another (those steps were rejected), or an output file "
+                                "could not be written"},
+                 {kExitUsage, "bad command line: an unknown option, a value out of range, a render option that "
+                              "cannot be met (odd --size for --video, no ffmpeg, no FCLIB for --export-fclib)"},
+                 {kExitBadInput, "the scene (or a mesh it names) was refused: FILE:LINE:COLUMN and what to change"},
+                 {kExitInterrupted, "interrupted (Ctrl-C, SIGTERM): what was computed up to the stop is written"}});
   run->callback([opt, exit_code]() { *exit_code = Run(*opt); });
 }
 

@@ -5,17 +5,33 @@
 #include <cstdio>
 #include <memory>
 
+#include "app/cli_help.h"
 #include "app/commands.h"
 #include "scene/scene_file.h"
 
 namespace gs::app {
 
 void AddSceneCommand(CLI::App& app, int* exit_code) {
-  CLI::App* scene = app.add_subcommand("scene", "Scene file tools");
+  CLI::App* scene = app.add_subcommand("scene", "Scene file tools: check scene files as run loads them");
   scene->require_subcommand(1);
+  SetHelpFooter(scene,
+                {{"graspsim scene check config/*.yaml", "check every scene that ships with graspsim"}},
+                {{kExitOk, "every file is a scene that run accepts"},
+                 {kExitUsage, "bad command line, or an unknown scene command (the list is printed)"},
+                 {kExitBadInput, "a file was refused: each error as FILE:LINE:COLUMN: message"}});
   auto files = std::make_shared<std::vector<std::string>>();
-  CLI::App* check = scene->add_subcommand("check", "Validate scene files: every error with file:line:column");
-  check->add_option("files", *files, "scene files (YAML)")->required();
+  CLI::App* check = scene->add_subcommand(
+      "check", "Validate scene files and build them as run does: every error with file:line:column");
+  check->group("Commands");
+  check->add_option("files", *files, "scene files (YAML, docs/scene-format.md)")->type_name("SCENE.yaml")->required();
+  SetHelpFooter(check,
+                {{"graspsim scene check config/*.yaml", "one ok line per scene: bodies, fingers, points, duration"},
+                 {"graspsim scene check tests/data/scenes/deep_overlap.yaml",
+                  "a refused scene: the line and column, and the value to use"}},
+                {{kExitOk, "every file loads and builds"},
+                 {kExitUsage, "bad command line (no file given)"},
+                 {kExitBadInput, "a file was refused (the others are still checked): each error as "
+                                 "FILE:LINE:COLUMN: message"}});
   check->callback([files, exit_code]() {
     bool all = true;
     for (const std::string& f : *files) {

@@ -6,6 +6,7 @@
 #include <memory>
 #include <thread>
 
+#include "app/cli_help.h"
 #include "app/commands.h"
 #include "session/tracker_app.h"
 #include "tracking/session_log.h"
@@ -110,15 +111,37 @@ int Send(const SendOptions& opt) {
 void AddSendCommand(CLI::App& app, int* exit_code) {
   auto opt = std::make_shared<SendOptions>();
   CLI::App* cmd = app.add_subcommand("send", "Send DTrack datagrams over UDP: a recorded session or a synthetic hand");
-  cmd->add_option("log", opt->log, "session log (FILE.lcmlog) to send at its recorded pace");
+  cmd->add_option("log", opt->log, "session log to send at its recorded pace (or --synthetic)")
+      ->type_name("FILE.lcmlog");
   cmd->add_flag("--synthetic", opt->synthetic, "a synthetic hand that grasps, lifts and releases the paper's box");
-  cmd->add_option("--port", opt->port, "destination UDP port")->required()->check(CLI::Range(1, 65535));
-  cmd->add_option("--host", opt->host, "destination IPv4 address")->capture_default_str();
+  cmd->add_option("--port", opt->port, "destination UDP port")
+      ->type_name("PORT")
+      ->required()
+      ->check(IntInRange(1, 65535, "a UDP port"));
+  cmd->add_option("--host", opt->host, "destination IPv4 address")->type_name("ADDRESS")->capture_default_str();
   cmd->add_option("--rate", opt->rate, "datagrams per second (synthetic default 100; a log: its recorded pace)")
-      ->check(CLI::Range(0.1, 100000.0));
-  cmd->add_option("--fingers", opt->fingers, "synthetic hand's fingers: 3 or 5")->check(CLI::IsMember({3, 5}));
-  cmd->add_option("--loop", opt->loops, "passes over the session")->check(CLI::Range(1, 1000000));
-  cmd->add_option("--delay", opt->start_delay, "seconds to wait before the first datagram")->check(CLI::Range(0.0, 60.0));
+      ->type_name("HZ")
+      ->check(InRange(0.1, 100000.0, "a rate in datagrams per second"));
+  cmd->add_option("--fingers", opt->fingers, "synthetic hand's fingers")
+      ->type_name("3|5")
+      ->check(OneOf({"3", "5"}, "a finger count"));
+  cmd->add_option("--loop", opt->loops, "passes over the session")
+      ->type_name("N")
+      ->check(IntInRange(1, 1000000, "a number of passes"));
+  cmd->add_option("--delay", opt->start_delay, "seconds to wait before the first datagram")
+      ->type_name("SECONDS")
+      ->check(InRange(0.0, 60.0, "a number of seconds"));
+  SetHelpFooter(cmd,
+                {{"graspsim send --synthetic --port 5000", "the synthetic grasp at 100 Hz to 127.0.0.1:5000 (the "
+                                                           "port of config/tracked_hand.yaml)"},
+                 {"graspsim send assets/demo_session.lcmlog --port 5000 --loop 3",
+                  "a recorded session, three times at its recorded pace"}},
+                {{kExitOk, "every datagram was sent"},
+                 {kExitFailure, "a datagram could not be sent"},
+                 {kExitUsage, "bad command line: neither or both of FILE.lcmlog and --synthetic, or a --host that "
+                              "cannot be used"},
+                 {kExitBadInput, "the session log was refused or holds no datagrams"},
+                 {kExitInterrupted, "stopped early by Ctrl-C or SIGTERM"}});
   cmd->callback([opt, exit_code]() { *exit_code = Send(*opt); });
 }
 

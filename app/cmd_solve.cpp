@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <memory>
 
+#include "app/cli_help.h"
 #include "app/commands.h"
 #include "fclib/fclib_io.h"
 #include "core/fc_fallback.h"
@@ -86,29 +87,58 @@ int RunSolve(const SolveOptions& opt) {
 void AddSolveCommand(CLI::App& app, int* exit_code) {
   auto opt = std::make_shared<SolveOptions>();
   CLI::App* cmd = app.add_subcommand("solve", "Solve an FCLIB local frictional contact problem (HDF5)");
-  cmd->add_option("file", opt->file, "FCLIB file (.hdf5)")->required();
+  cmd->add_option("file", opt->file, "the FCLIB problem (local formulation)")->type_name("FILE.hdf5")->required();
   cmd->add_flag("--json", opt->json, "one JSON object: contacts, iterations, error, converged, time_ms");
-  cmd->add_option("--tolerance", opt->tolerance, "on the Siconos error")->capture_default_str()->check(CLI::PositiveNumber);
+  cmd->add_option("--tolerance", opt->tolerance, "stop at this error (Siconos' measure, dimensionless)")
+      ->type_name("ERROR")
+      ->capture_default_str()
+      ->check(Positive("tolerance"));
   cmd->add_option("--solver", opt->solver,
                   "nsgs (Gauss-Seidel with conjugate directions); newton (proximal semi-smooth Newton, Alart-Curnier); auto (NSGS, then Newton when it stagnates)")
+      ->type_name("nsgs|newton|auto")
       ->capture_default_str()
-      ->check(CLI::IsMember({"nsgs", "newton", "auto"}));
+      ->check(OneOf({"nsgs", "newton", "auto"}, "a solver"));
   cmd->add_option("--max-newton", opt->max_newton, "Newton step cap (LU factorisations)")
+      ->type_name("N")
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+      ->check(PositiveInt("number of Newton steps"));
   cmd->add_option("--stagnation-window", opt->stagnation_window,
                   "auto: NSGS sweeps per progress check (the best error must halve per window)")
+      ->type_name("SWEEPS")
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+      ->check(PositiveInt("number of sweeps"));
   cmd->add_option("--write-solution", opt->write_solution,
-                  "write the problem and the forces found (FCLIB solution: r, u = W r + q) to this HDF5 file");
-  cmd->add_option("--max-iterations", opt->max_iterations, "NSGS sweep cap")->capture_default_str()->check(CLI::PositiveNumber);
-  cmd->add_option("--over-relaxation", opt->over_relaxation, "omega in (0, 2)")->capture_default_str()->check(CLI::Range(0.01, 1.99));
-  cmd->add_option("--order", opt->order, "sweep order")->capture_default_str()->check(CLI::IsMember({"forward", "alternating"}));
+                  "write the problem and the forces found (FCLIB solution: r, u = W r + q) to this HDF5 file")
+      ->type_name("FILE.hdf5");
+  cmd->add_option("--max-iterations", opt->max_iterations, "NSGS sweep cap")
+      ->type_name("SWEEPS")
+      ->capture_default_str()
+      ->check(PositiveInt("number of sweeps"));
+  cmd->add_option("--over-relaxation", opt->over_relaxation, "omega, from 0.01 to 1.99")
+      ->type_name("OMEGA")
+      ->capture_default_str()
+      ->check(InRange(0.01, 1.99, "an over-relaxation factor"));
+  cmd->add_option("--order", opt->order, "sweep order")
+      ->type_name("forward|alternating")
+      ->capture_default_str()
+      ->check(OneOf({"forward", "alternating"}, "a sweep order"));
   cmd->add_option("--extrapolate-every", opt->extrapolate_every,
                   "sweeps between extrapolation trials along the drift (0: none)")
+      ->type_name("SWEEPS")
       ->capture_default_str()
-      ->check(CLI::NonNegativeNumber);
+      ->check(NonNegativeInt("number of sweeps"));
+  SetHelpFooter(cmd,
+                {{"graspsim solve tests/data/fclib/Capsules-i125-1213.hdf5",
+                  "iterations, error and time on a problem of the FCLIB collection"},
+                 {"graspsim solve tests/data/fclib/Capsules-i125-1213.hdf5 --solver nsgs --json",
+                  "NSGS alone, the result as one JSON object"}},
+                {{kExitOk, "solved: the error reached --tolerance"},
+                 {kExitFailure, "not solved within the caps (--max-iterations, --max-newton), or --write-solution "
+                                "could not be written"},
+                 {kExitUsage, "bad command line"},
+                 {kExitBadInput, "the file is not an FCLIB local problem graspsim can read (or FCLIB is not built "
+                                 "in)"},
+                 {kExitInterrupted, "interrupted (Ctrl-C, SIGTERM): what was computed up to the stop is written"}});
   cmd->callback([opt, exit_code]() { *exit_code = RunSolve(*opt); });
 }
 

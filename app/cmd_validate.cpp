@@ -3,6 +3,7 @@
 #include <cstdio>
 #include <memory>
 
+#include "app/cli_help.h"
 #include "app/commands.h"
 #include "session/console.h"
 #include "validate/validation.h"
@@ -36,13 +37,22 @@ void AddValidateCommand(CLI::App& app, int* exit_code) {
     ValidationOptions v;
   };
   auto opt = std::make_shared<Opt>();
-  std::string names = "all";
-  for (const std::string& n : ValidationNames()) names += "|" + n;
+  std::string names;
+  for (const std::string& n : ValidationNames()) names += ", " + n;
   CLI::App* cmd = app.add_subcommand("validate", "Validation scenes with known answers; prints error and pass/fail");
-  cmd->add_option("name", opt->name, names)->capture_default_str();
+  cmd->add_option("name", opt->name, "all, or one family of cases: " + names.substr(2))
+      ->type_name("CASE")
+      ->capture_default_str();
   cmd->add_flag("--json", opt->json, "one JSON object per case: name, error, pass");
   cmd->add_flag("--quick", opt->v.quick, "shorter holds and coarser sampling");
   cmd->add_flag("--quiet", opt->quiet, "no line announcing each family");
+  SetHelpFooter(cmd,
+                {{"graspsim validate slide --quick", "the sliding cases (friction over normal force while sliding, against mu), shortened"},
+                 {"graspsim validate --json", "every family (it takes minutes), one JSON object per case"}},
+                {{kExitOk, "every case passed"},
+                 {kExitFailure, "a case failed: its error is over its bound (the FAIL lines)"},
+                 {kExitUsage, "bad command line, or an unknown CASE (the families are printed)"},
+                 {kExitInterrupted, "interrupted (Ctrl-C, SIGTERM): what was computed up to the stop is written"}});
   cmd->callback([opt, exit_code]() {
     const std::vector<std::string> families = ValidationNames();
     const bool known = opt->name == "all" || std::find(families.begin(), families.end(), opt->name) != families.end();
