@@ -155,7 +155,7 @@ void AddBenchCommand(CLI::App& app, int* exit_code) {
                 {{kExitOk, "every setting was measured"},
                  {kExitFailure, "a setting could not be measured"},
                  usage,
-                 {4, "the --plot folder cannot be written, or gnuplot is missing (tradeoff.csv is still written)"},
+                 {kExitMissingTool, "the --plot folder cannot be written, or gnuplot is missing (tradeoff.csv is still written)"},
                  interrupted});
 }
 

@@ -6,13 +6,14 @@
 #include <filesystem>
 #include <memory>
 
+#include "app/cli_help.h"
 #include "app/commands.h"
 #include "plot/result_plots.h"
 
 namespace gs::app {
 namespace {
 
-constexpr int kExitGnuplot = 4;  // gnuplot missing or failing, as for `bench tradeoff --plot`
+constexpr int kExitGnuplot = kExitMissingTool;  // gnuplot missing or failing, as for `bench tradeoff --plot`
 
 struct PlotOptions {
   std::string dir;
@@ -82,10 +83,17 @@ void AddPlotCommand(CLI::App& app, int* exit_code) {
   CLI::App* cmd = app.add_subcommand(
       "plot", "PNG figures of a `run --out DIR` or `replay ... --out DIR` folder through gnuplot: height, grip "
               "force, contacts, stick/slip, step time");
-  cmd->add_option("dir", opt->dir, "the output folder of graspsim run or replay")->required();
-  cmd->add_option("--out", opt->out, "folder for the PNGs (default: DIR/plots)");
-  cmd->add_option("--size", opt->size, "figure size WxH in pixels")->capture_default_str();
+  cmd->add_option("dir", opt->dir, "the output folder of graspsim run or replay")->required()->type_name("DIR");
+  cmd->add_option("--out", opt->out, "folder for the PNGs (default: DIR/plots)")->type_name("PLOTDIR");
+  cmd->add_option("--size", opt->size, "figure size in pixels")->type_name("WxH")->capture_default_str();
   cmd->add_flag("--quiet", opt->quiet, "no list of the figures written (figures that cannot be made are still named)");
+  SetHelpFooter(cmd,
+                {{"graspsim plot out/", "the figures of `graspsim run --out out/`, written to out/plots/"},
+                 {"graspsim plot replay_out/ --out figures/ --size 1600x900", "a replay folder's figures, larger"}},
+                {{kExitOk, "the figures were written (the ones the folder cannot give are named)"},
+                 {kExitUsage, "bad command line: --out cannot be made or written, a bad --size"},
+                 {kExitBadInput, "DIR is not a run or replay folder, or one of its files is malformed (file:line)"},
+                 {kExitMissingTool, "gnuplot is missing or failed (scripts/setup.sh installs it)"}});
   cmd->callback([opt, exit_code]() { *exit_code = Plot(*opt); });
 }
 

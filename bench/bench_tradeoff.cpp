@@ -23,6 +23,7 @@
 #include "core/fc_problem.h"
 #include "core/world.h"
 #include "plot/gnuplot.h"
+#include "scene/exit_code.h"
 #include "session/console.h"
 
 namespace gs::app {
@@ -699,7 +700,7 @@ int RunBenchTradeoff(const BenchOptions& opt) {
     if (!f) {
       std::fprintf(stderr, "graspsim bench tradeoff: cannot write %s (is '%s' a writable directory?)\n",
                    probe.c_str(), opt.plot_dir.c_str());
-      return 4;
+      return kExitMissingTool;
     }
     std::fclose(f);
     if (!plot::GnuplotFound())
@@ -745,7 +746,7 @@ int RunBenchTradeoff(const BenchOptions& opt) {
   }
   if (!plotted) {
     std::fprintf(stderr, "graspsim bench tradeoff: %s\n", error.c_str());
-    return 4;
+    return kExitMissingTool;
   }
   return unmeasured == 0 ? 0 : 1;
 }

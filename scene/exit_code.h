@@ -11,6 +11,7 @@ enum ExitCode : int {
   kExitFailure = 1,     ///< the command ran and something failed (a validation case, a bench target)
   kExitUsage = 2,       ///< bad command line
   kExitBadInput = 3,    ///< a scene, mesh, log or problem file was refused
+  kExitMissingTool = 4, ///< an outside program graspsim calls to draw figures (gnuplot) is missing or failed
   kExitInterrupted = 130,
 };
 
