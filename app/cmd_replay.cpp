@@ -31,6 +31,7 @@ struct ReplayOptions {
   double tail = 0.5;
   bool realtime = false;
   bool quiet = false;
+  bool json = false;  ///< stdout: summary.json's object as one line, nothing else
   RenderOptions render;  ///< --frames, --video, ... (docs/render.md): frames at fixed simulated times
 };
 
@@ -112,6 +113,7 @@ int Replay(const ReplayOptions& opt) {
     return kExitBadInput;
   }
   auto sim = std::make_unique<TrackedSim>();
+  if (!opt.quiet && !opt.json) std::printf("replay: building scene %s ...\n", ResolveResource(scene_path).c_str());
   if (!sim->Load(ResolveResource(scene_path), &error)) {
     std::fprintf(stderr, "%s\n", error.c_str());
     return kExitBadInput;
@@ -124,10 +126,10 @@ int Replay(const ReplayOptions& opt) {
   const double span = 1e-6 * static_cast<double>(summary.last_monotonic_utime - summary.first_monotonic_utime);
   const double duration = opt.duration > 0 ? opt.duration : span + opt.tail;
   const int64_t steps = static_cast<int64_t>(std::ceil(duration / dt - 1e-9));
-  std::printf("replay: %s in scene %s: %zu datagrams over %.3f s; simulating %.3f s (%lld steps)\n", log_path.c_str(),
-              sim->scene().name.c_str(), static_cast<size_t>(summary.datagrams), span, duration,
-              static_cast<long long>(steps));
-  std::fflush(stdout);
+  if (!opt.json)
+    std::printf("replay: %s in scene %s: %zu datagrams over %.3f s; simulating %.3f s (%lld steps)\n",
+                log_path.c_str(), sim->scene().name.c_str(), static_cast<size_t>(summary.datagrams), span, duration,
+                static_cast<long long>(steps));
 
   // outputs: everything deterministic (no wall times)
   ReplayFiles files;
@@ -142,7 +144,7 @@ int Replay(const ReplayOptions& opt) {
   const auto& fmap = sim->config().fingertips;
   tips << "time_s";
   for (const auto& f : fmap)
-    for (const char* c : {"state", "target_x", "target_y", "target_z", "force_x", "force_y", "force_z"})
+    for (const char* c : {"state", "target_x_m", "target_y_m", "target_z_m", "force_x_N", "force_y_N", "force_z_N"})
       tips << "," << f.name << "_" << c;
   tips << "\n";
   frames << "time_s,arrival_s,sequence,frame,parse_errors,valid\n";
@@ -166,7 +168,7 @@ int Replay(const ReplayOptions& opt) {
   using Clock = std::chrono::steady_clock;
   const auto t0 = Clock::now();
   int64_t step = 0;
-  Progress progress("replay", steps, opt.quiet);
+  Progress progress("replay", steps, opt.quiet || opt.json);
   std::vector<double> step_ms;  // wall time per step: printed, never written (outputs stay deterministic)
   step_ms.reserve(static_cast<size_t>(steps));
   int max_iterations = 0, max_contacts = 0;
@@ -232,55 +234,59 @@ int Replay(const ReplayOptions& opt) {
   progress.Done(interrupted ? "interrupted" : "");
   const double wall = std::chrono::duration<double>(Clock::now() - t0).count();
   // a video is finalised up to its last frame, also when stopped; the --out files are written either way
-  const bool frames_ok = recorder.Finish(&error);
+  const bool frames_ok = recorder.Finish(&error, opt.json);
   if (!frames_ok) std::fprintf(stderr, "replay: %s\n", error.c_str());
   if (!reader.error().empty()) {
     std::fprintf(stderr, "replay: %s\n", reader.error().c_str());
     return kExitBadInput;
   }
-  if (interrupted) std::printf("replay: interrupted at t=%.3f s\n", w.time);
   const tracking::ParseStats& ps = sim->parser().stats();
   const bool lifted = max_rise >= 0.02;
-  std::printf("replay: %lld steps in %.2f s wall (%.2fx real time); %zu datagrams applied; parse errors %s\n",
-              static_cast<long long>(step), wall, wall > 0 ? w.time / wall : 0.0, next,
-              FormatParseErrors(ps).c_str());
-  if (tracked >= 0)
-    std::printf("replay: %s highest rise %.2f mm, held 2 cm up for %.3f s, final (%.4f, %.4f, %.4f) m%s\n",
-                w.bodies[tracked].name.c_str(), 1e3 * max_rise, lifted_time, w.bodies[tracked].pose.t.x(),
-                w.bodies[tracked].pose.t.y(), w.bodies[tracked].pose.t.z(), lifted ? ": grasped and lifted" : "");
-  if (!step_ms.empty()) {
-    std::vector<double> sorted = step_ms;
-    std::sort(sorted.begin(), sorted.end());
-    std::printf("replay: step median %.3f ms, p99 %.3f ms, max %.3f ms (collision %.3f ms, solve %.3f ms); up to %d "
-                "contacts and %d Gauss-Seidel sweeps\n",
-                sorted[sorted.size() / 2], sorted[static_cast<size_t>(0.99 * (sorted.size() - 1))], sorted.back(),
-                slowest_detect, slowest_solve, max_contacts, max_iterations);
-  }
-  std::printf("replay: max coupling force %.2f N, max penetration %.3f mm, %lld rejected steps, %lld unconverged\n",
-              max_coupling, 1e3 * max_penetration, static_cast<long long>(w.rejected_steps),
-              static_cast<long long>(w.unconverged_steps));
-
-  if (!opt.out.empty()) {
-    std::ostringstream js;
-    js.precision(17);
-    js << "{\"scene\":\"" << sim->scene().name << "\",\"log\":\"" << std::filesystem::path(log_path).filename().string()
-       << "\",\"datagrams\":" << summary.datagrams << ",\"datagrams_applied\":" << next << ",\"steps\":" << step
-       << ",\"interrupted\":" << (interrupted ? "true" : "false") << ",\"dt_s\":" << dt << ",\"simulated_s\":" << w.time << ",\"parse_errors\":" << ps.TotalErrors()
-       << ",\"parse_errors_by_category\":" << ParseErrorsJson(ps) << ",\"rejected_steps\":" << w.rejected_steps
-       << ",\"unconverged_steps\":" << w.unconverged_steps << ",\"max_coupling_force_N\":" << max_coupling
-       << ",\"max_penetration_m\":" << max_penetration << ",\"state_hash\":\"" << StateHashHex(w) << "\"";
+  if (!opt.json) {
+    if (interrupted) std::printf("replay: interrupted at t=%.3f s\n", w.time);
+    std::printf("replay: %lld steps in %.2f s wall (%.2fx real time); %zu datagrams applied; parse errors %s\n",
+                static_cast<long long>(step), wall, wall > 0 ? w.time / wall : 0.0, next,
+                FormatParseErrors(ps).c_str());
     if (tracked >= 0)
-      js << ",\"tracked_body\":\"" << w.bodies[tracked].name << "\",\"max_rise_m\":" << max_rise
-         << ",\"lifted_s\":" << lifted_time << ",\"lifted\":" << (lifted ? "true" : "false") << ",\"final_position_m\":["
-         << w.bodies[tracked].pose.t.x() << "," << w.bodies[tracked].pose.t.y() << "," << w.bodies[tracked].pose.t.z()
-         << "]";
-    js << "}";
+      std::printf("replay: %s highest rise %.2f mm, held 2 cm up for %.3f s, final (%.4f, %.4f, %.4f) m%s\n",
+                  w.bodies[tracked].name.c_str(), 1e3 * max_rise, lifted_time, w.bodies[tracked].pose.t.x(),
+                  w.bodies[tracked].pose.t.y(), w.bodies[tracked].pose.t.z(), lifted ? ": grasped and lifted" : "");
+    if (!step_ms.empty()) {
+      std::vector<double> sorted = step_ms;
+      std::sort(sorted.begin(), sorted.end());
+      std::printf("replay: step median %.3f ms, p99 %.3f ms, max %.3f ms (collision %.3f ms, solve %.3f ms); up to %d "
+                  "contacts and %d Gauss-Seidel sweeps\n",
+                  sorted[sorted.size() / 2], sorted[static_cast<size_t>(0.99 * (sorted.size() - 1))], sorted.back(),
+                  slowest_detect, slowest_solve, max_contacts, max_iterations);
+    }
+    std::printf("replay: max coupling force %.2f N, max penetration %.3f mm, %lld rejected steps, %lld unconverged\n",
+                max_coupling, 1e3 * max_penetration, static_cast<long long>(w.rejected_steps),
+                static_cast<long long>(w.unconverged_steps));
+  }
+
+  std::ostringstream js;
+  js.precision(17);
+  js << "{\"scene\":\"" << sim->scene().name << "\",\"log\":\"" << std::filesystem::path(log_path).filename().string()
+     << "\",\"datagrams\":" << summary.datagrams << ",\"datagrams_applied\":" << next << ",\"steps\":" << step
+     << ",\"interrupted\":" << (interrupted ? "true" : "false") << ",\"dt_s\":" << dt << ",\"simulated_s\":" << w.time << ",\"parse_errors\":" << ps.TotalErrors()
+     << ",\"parse_errors_by_category\":" << ParseErrorsJson(ps) << ",\"rejected_steps\":" << w.rejected_steps
+     << ",\"unconverged_steps\":" << w.unconverged_steps << ",\"max_coupling_force_N\":" << max_coupling
+     << ",\"max_penetration_m\":" << max_penetration << ",\"state_hash\":\"" << StateHashHex(w) << "\"";
+  if (tracked >= 0)
+    js << ",\"tracked_body\":\"" << w.bodies[tracked].name << "\",\"max_rise_m\":" << max_rise
+       << ",\"lifted_s\":" << lifted_time << ",\"lifted\":" << (lifted ? "true" : "false") << ",\"final_position_m\":["
+       << w.bodies[tracked].pose.t.x() << "," << w.bodies[tracked].pose.t.y() << "," << w.bodies[tracked].pose.t.z()
+       << "]";
+  js << "}";
+  if (!opt.out.empty()) {
     if (!files.Close(opt.out, &error) || !WriteSummaryJson(opt.out, js.str(), &error)) {
       std::fprintf(stderr, "replay: %s\n", error.c_str());
       return kExitFailure;
     }
-    std::printf("replay: wrote %s/trajectory.csv, fingertips.csv, tracker.csv, summary.json\n", opt.out.c_str());
+    if (!opt.json)
+      std::printf("replay: wrote %s/trajectory.csv, fingertips.csv, tracker.csv, summary.json\n", opt.out.c_str());
   }
+  if (opt.json) std::printf("%s\n", js.str().c_str());
   if (interrupted) return kExitInterrupted;
   return frames_ok ? kExitOk : kExitFailure;
 }
@@ -306,7 +312,8 @@ void AddReplayCommand(CLI::App& app, int* exit_code) {
   cmd->add_option("--tail", opt->tail, "simulated seconds after the last datagram (default 0.5)")
       ->type_name("SECONDS")
       ->check(InRange(0.0, 1e6, "a number of seconds"));
-  cmd->add_flag("--quiet", opt->quiet, "no progress bar");
+  cmd->add_flag("--quiet", opt->quiet, "no progress bar or progress lines");
+  cmd->add_flag("--json", opt->json, "print only the replay's summary as one JSON object (the summary.json of --out)");
   AddRenderOptions(cmd, &opt->render);
   SetHelpFooter(cmd,
                 {{"graspsim replay assets/demo_session.lcmlog --out out/",

@@ -24,6 +24,7 @@ struct RunOptions {
   int every = 1;  ///< trajectory.csv and contacts.csv every Nth step
   double duration = -1.0;
   bool quiet = false;
+  bool json = false;  ///< stdout: summary.json's object as one line, nothing else
   std::string export_fclib;  ///< folder for every step's contact problem (FCLIB)
   int export_every = 1;
   RenderOptions render;  ///< --frames, --video, --size, --fps (docs/render.md)
@@ -99,7 +100,7 @@ int Run(const RunOptions& opt) {
     return kExitUsage;
   }
   const std::string path = ResolveResource(opt.scene);
-  if (!opt.quiet) std::printf("building scene %s ...\n", path.c_str());
+  if (!opt.quiet && !opt.json) std::printf("building scene %s ...\n", path.c_str());
   const auto t0 = Clock::now();
   auto built = std::make_unique<BuiltScene>();
   if (!LoadAndBuildScene(path, built.get(), &error)) {
@@ -113,10 +114,12 @@ int Run(const RunOptions& opt) {
   const int64_t steps = static_cast<int64_t>(std::llround(duration / w.params.dt));
   size_t points = 0;
   for (const Body& b : w.bodies) points += b.geometry.cloud.size();
-  std::printf("scene %s: %zu bodies, %zu fingers, %zu surface points, built in %.2f s\n", built->name.c_str(),
-              w.bodies.size(), w.hand.fingers.size(), points, build_s);
-  std::printf("simulating %.3f s in %lld steps of %.3g ms\n", duration, static_cast<long long>(steps),
-              1e3 * w.params.dt);
+  if (!opt.json) {
+    std::printf("scene %s: %zu bodies, %zu fingers, %zu surface points, built in %.2f s\n", built->name.c_str(),
+                w.bodies.size(), w.hand.fingers.size(), points, build_s);
+    std::printf("simulating %.3f s in %lld steps of %.3g ms\n", duration, static_cast<long long>(steps),
+                1e3 * w.params.dt);
+  }
 
   int exported = 0;
   std::vector<StepRecord> records;
@@ -134,7 +137,7 @@ int Run(const RunOptions& opt) {
     std::fprintf(stderr, "graspsim run: %s\n", error.c_str());
     return kExitFailure;
   }
-  Progress progress("run", steps, opt.quiet);
+  Progress progress("run", steps, opt.quiet || opt.json);
   const auto t1 = Clock::now();
   int64_t done = 0;
   for (; done < steps && !StopRequested(); ++done) {
@@ -160,30 +163,32 @@ int Run(const RunOptions& opt) {
   progress.Done(interrupted ? "interrupted" : "");
   const double wall = std::chrono::duration<double>(Clock::now() - t1).count();
   const double simulated = static_cast<double>(done) * w.params.dt;
-  if (interrupted)
+  if (interrupted && !opt.json)
     std::printf("run: interrupted at t=%.3f s after %lld of %lld steps; writing what was computed\n", w.time,
                 static_cast<long long>(done), static_cast<long long>(steps));
-  const bool frames_ok = frames.Finish(&error);  // a video is finalised up to its last frame, also when stopped
+  const bool frames_ok = frames.Finish(&error, opt.json);  // a video is finalised up to its last frame, also when stopped
   if (!frames_ok) std::fprintf(stderr, "graspsim run: %s\n", error.c_str());
-  PrintPaperTables(records);
-  if (!opt.export_fclib.empty())
-    std::printf("exported %d contact problems (FCLIB) to %s\n", exported, opt.export_fclib.c_str());
-  std::printf("\n%lld steps in %.2f s wall (%.2fx real time); %lld steps hit the iteration cap, %lld rejected\n",
-              static_cast<long long>(done), wall, wall > 0 ? simulated / wall : 0.0,
-              static_cast<long long>(w.unconverged_steps), static_cast<long long>(w.rejected_steps));
-  if (tracked >= 0)
-    std::printf("%s: highest rise %.2f mm, final position (%.4f, %.4f, %.4f) m\n", w.bodies[tracked].name.c_str(),
-                1e3 * max_rise, w.bodies[tracked].pose.t.x(), w.bodies[tracked].pose.t.y(),
-                w.bodies[tracked].pose.t.z());
-
+  if (!opt.json) {
+    PrintPaperTables(records);
+    if (!opt.export_fclib.empty())
+      std::printf("exported %d contact problems (FCLIB) to %s\n", exported, opt.export_fclib.c_str());
+    std::printf("\n%lld steps in %.2f s wall (%.2fx real time); %lld steps hit the iteration cap, %lld rejected\n",
+                static_cast<long long>(done), wall, wall > 0 ? simulated / wall : 0.0,
+                static_cast<long long>(w.unconverged_steps), static_cast<long long>(w.rejected_steps));
+    if (tracked >= 0)
+      std::printf("%s: highest rise %.2f mm, final position (%.4f, %.4f, %.4f) m\n", w.bodies[tracked].name.c_str(),
+                  1e3 * max_rise, w.bodies[tracked].pose.t.x(), w.bodies[tracked].pose.t.y(),
+                  w.bodies[tracked].pose.t.z());
+  }
+  const std::string js = SummaryJson(*built, opt, done, simulated, wall, residual_max, max_rise, interrupted);
   if (!opt.out.empty()) {
-    const std::string js = SummaryJson(*built, opt, done, simulated, wall, residual_max, max_rise, interrupted);
     if (!files.Close(&error) || !WriteSummaryJson(opt.out, js, &error)) {
       std::fprintf(stderr, "graspsim run: %s\n", error.c_str());
       return kExitFailure;
     }
-    std::printf("wrote %s/trajectory.csv, contacts.csv, timings.csv, summary.json\n", opt.out.c_str());
+    if (!opt.json) std::printf("wrote %s/trajectory.csv, contacts.csv, timings.csv, summary.json\n", opt.out.c_str());
   }
+  if (opt.json) std::printf("%s\n", js.c_str());
   if (interrupted) return kExitInterrupted;
   if (!frames_ok) return kExitFailure;
   // a body that went through another is a failed run, even though its steps were undone
@@ -219,6 +224,7 @@ void AddRunCommand(CLI::App& app, int* exit_code) {
       ->type_name("N")
       ->check(PositiveInt("number of steps"));
   run->add_flag("--quiet", opt->quiet, "no progress lines");
+  run->add_flag("--json", opt->json, "print only the run's summary as one JSON object (the summary.json of --out)");
   AddRenderOptions(run, &opt->render);
   SetHelpFooter(run,
                 {{"graspsim run config/paper_box_grasp.yaml --out out/ --video grasp.mp4",

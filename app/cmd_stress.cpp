@@ -13,6 +13,7 @@ namespace gs::app {
 void AddStressCommand(CLI::App& app, int* exit_code) {
   struct Opt {
     bool json = false;
+    bool quiet = false;
     std::string filter;
     StressOptions s;
   };
@@ -21,6 +22,7 @@ void AddStressCommand(CLI::App& app, int* exit_code) {
       "stress", "Numerical stress matrix (stiffness, time step, mass ratio, 2,000 contacts, tracker faults, "
                 "degenerate clouds, ...): each case passes or is refused up front");
   cmd->add_flag("--json", opt->json, "one JSON object per case (name, pass, figures), the last line a summary");
+  cmd->add_flag("--quiet", opt->quiet, "no line per case: the failed cases and the summary only");
   cmd->add_flag("--quick", opt->s.quick, "shortened runs (100,000 steps instead of a million), under 20 s");
   cmd->add_option("--case", opt->filter, "run only the cases whose name contains NAME (e.g. stiffness, tracker_)")
       ->type_name("NAME");
@@ -41,7 +43,7 @@ void AddStressCommand(CLI::App& app, int* exit_code) {
       *exit_code = kExitUsage;
       return;
     }
-    if (!opt->json)
+    if (!opt->json && !opt->quiet)
       std::printf("%-24s %-6s %7s %6s %5s %5s %5s %9s %10s %10s %9s  %s\n", "case", "result", "steps", "cont", "nan",
                   "rej", "uncv", "resid", "pen (mm)", "dE (J)", "vmax", "check");
     int passed = 0, failed = 0, refused = 0, interrupted = 0;
@@ -56,6 +58,8 @@ void AddStressCommand(CLI::App& app, int* exit_code) {
         seconds += r.seconds;
         if (opt->json) {
           std::printf("%s\n", StressJson(r).c_str());
+        } else if (opt->quiet && (r.pass || r.interrupted)) {
+          continue;
         } else if (r.interrupted) {
           std::printf("%-24s %-6s after %lld steps\n", r.name.c_str(), "STOP", static_cast<long long>(r.steps));
         } else if (r.refused) {

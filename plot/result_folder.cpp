@@ -88,8 +88,8 @@ bool LoadFolder(const std::string& dir, Folder* f, std::string* error) {
                    error) &&
          ReadTable(*f, "fingertips.csv",
                    [](const std::string& c) {
-                     return OneOf(c, {"t_s", "time_s"}) || EndsWith(c, "_force_x") || EndsWith(c, "_force_y") ||
-                            EndsWith(c, "_force_z");
+                     return OneOf(c, {"t_s", "time_s"}) || EndsWith(c, "_force_x_N") || EndsWith(c, "_force_y_N") ||
+                            EndsWith(c, "_force_z_N");
                    },
                    &f->fingertips, error);
 }
@@ -279,11 +279,11 @@ bool AddGripFromFingertips(const Folder& f, ResultPlots* plots, std::string* err
   int tc;
   if (!NeedTime(t, &tc, error) || !t.Numbers(tc, &fig.x, error)) return false;
   for (const std::string& c : t.header()) {
-    if (!EndsWith(c, "_force_x")) continue;
-    const std::string tip = c.substr(0, c.size() - 8);
+    if (!EndsWith(c, "_force_x_N")) continue;
+    const std::string tip = c.substr(0, c.size() - 10);
     std::vector<double> xyz[3];
     int k = 0;
-    for (const char* axis : {"_force_x", "_force_y", "_force_z"}) {
+    for (const char* axis : {"_force_x_N", "_force_y_N", "_force_z_N"}) {
       int col;
       if (!Need(t, tip + axis, &col, error) || !t.Numbers(col, &xyz[k++], error)) return false;
     }
@@ -292,7 +292,7 @@ bool AddGripFromFingertips(const Folder& f, ResultPlots* plots, std::string* err
     fig.series.push_back(std::move(s));
   }
   if (fig.series.empty() || t.rows() == 0) {
-    plots->missing.push_back({kGripForcePng, t.path() + (fig.series.empty() ? " has no NAME_force_x column"
+    plots->missing.push_back({kGripForcePng, t.path() + (fig.series.empty() ? " has no NAME_force_x_N column"
                                                                              : " has no data lines")});
     return true;
   }

@@ -11,14 +11,13 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libfclib-dev libhdf5-dev
   clang libclang-rt-14-dev
-  ffmpeg
+  ffmpeg gnuplot-nox
 )
-# optional extras: the Siconos side-by-side benchmark, video output and plots
+# optional extras: the Siconos side-by-side benchmark and the mesh import test models
 if [ "${GRASPSIM_SETUP_MINIMAL:-0}" != 1 ]; then
   packages+=(libsiconos-numerics-dev)
   # the mesh import test walks every model of assimp's own test suite
   packages+=(assimp-testmodels)
-  packages+=(gnuplot-nox)  # graspsim bench tradeoff --plot
 fi
 
 missing=()
