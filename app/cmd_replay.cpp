@@ -86,7 +86,7 @@ int Replay(const ReplayOptions& opt) {
   }
   std::string error;
   // the outputs are checked before any work
-  if (!CheckRenderOptions(opt.render, &error) || (!opt.out.empty() && !CheckOutputFolder("--out", opt.out, &error))) {
+  if ((!opt.out.empty() && !CheckOutputFolder("--out", opt.out, &error)) || !CheckRenderOptions(opt.render, &error)) {
     std::fprintf(stderr, "replay: %s\n", error.c_str());
     return kExitUsage;
   }

@@ -49,8 +49,9 @@ bool ExportStep(const std::string& dir, const std::string& scene, World& w, int*
 // Every output is checked (and its folders made) before the scene is built: a
 // mistake in an option costs no simulation.
 bool CheckOutputs(const RunOptions& opt, std::string* error) {
-  if (!CheckRenderOptions(opt.render, error)) return false;
+  // --out first: its folder may be where --video goes
   if (!opt.out.empty() && !CheckOutputFolder("--out", opt.out, error)) return false;
+  if (!CheckRenderOptions(opt.render, error)) return false;
   if (opt.export_fclib.empty()) return true;
   if (!FclibAvailable()) {
     *error = "--export-fclib: graspsim was built without FCLIB (install libfclib-dev and rebuild)";
