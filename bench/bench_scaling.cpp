@@ -19,6 +19,7 @@
 #include "bench/bench.h"
 #include "scene/code_scenes.h"
 #include "core/world.h"
+#include "session/console.h"
 
 namespace gs::app {
 namespace {
@@ -143,6 +144,7 @@ int RunBenchScaling(const BenchOptions& opt) {
                              "  %8s %8s %10s %10s %10s %10s %10s %6s\n",
                              "cps", "contacts", "step", "collision", "space", "solve", "motion", "sweeps");
   for (int target : targets) {
+    if (StopRequested()) break;  // Ctrl-C: the rows measured so far are printed and fitted
     int c = 0;
     const Timed t = SlabRun(target, steps, &c);
     lc.push_back(std::log(std::max(1, t.contacts)));
@@ -159,6 +161,7 @@ int RunBenchScaling(const BenchOptions& opt) {
   if (!opt.json) std::printf("  against points per object (box of N points, ball on it, fixed control points)\n"
                              "  %8s %8s %10s %10s %10s\n", "points", "contacts", "step", "collision", "solve");
   for (int n : points) {
+    if (StopRequested()) break;
     const Timed t = PointsRun(n, steps);
     lp.push_back(std::log(n));
     t_p.push_back(t.step_ms);

@@ -12,6 +12,7 @@
 
 #include "bench/bench.h"
 #include "core/world.h"
+#include "session/console.h"
 
 namespace gs::app {
 namespace {
@@ -243,6 +244,7 @@ int RunBenchSkip(const BenchOptions& opt) {
   double worst = 0.0;
   std::string worst_feature;
   for (const Case& c : cases) {
+    if (StopRequested()) break;  // Ctrl-C: the features measured so far are printed
     const Result r = Measure(c, opt.quick && !c.settle_in_quick ? std::min(c.settle, 40) : c.settle, steps);
     if (r.ratio > worst) {
       worst = r.ratio;

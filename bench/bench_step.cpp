@@ -11,6 +11,8 @@
 #include "bench/bench.h"
 #include "scene/paths.h"
 #include "scene/scene_file.h"
+#include "scene/exit_code.h"
+#include "session/console.h"
 
 namespace gs::app {
 namespace {
@@ -44,7 +46,7 @@ int RunBenchStep(const BenchOptions& opt) {
   double residual_max = 0.0;
   int unconverged = 0, rejected = 0;
   const int steps = static_cast<int>(std::llround(window / w.params.dt));
-  for (int i = 0; i < steps; ++i) {
+  for (int i = 0; i < steps && !StopRequested(); ++i) {
     built->script.Apply(w, w.time + w.params.dt);
     w.Step();
     const StepProfile& p = w.profile;
@@ -70,6 +72,10 @@ int RunBenchStep(const BenchOptions& opt) {
     residual_max = std::max(residual_max, p.residual);
     unconverged += p.converged ? 0 : 1;
     rejected += p.rejected ? 1 : 0;
+  }
+  if (StopRequested()) {  // Ctrl-C: a window cut short is no measurement
+    std::fprintf(stderr, "graspsim bench step: interrupted after %zu of %d steps; nothing reported\n", total.size(), steps);
+    return kExitInterrupted;
   }
   const double step_ms = MedianOf(total);
   if (opt.json) {
