@@ -35,6 +35,10 @@ struct LiveCmd {
 int Live(const LiveCmd& c) {
   auto sim = std::make_unique<TrackedSim>();
   std::string error;
+  if (!CheckRenderOptions(c.render, &error)) {  // before the scene is built
+    std::fprintf(stderr, "live: %s\n", error.c_str());
+    return kExitUsage;
+  }
   if (!sim->Load(ResolveResource(c.scene), &error)) {
     std::fprintf(stderr, "%s\n", error.c_str());
     return kExitBadInput;

@@ -2,6 +2,8 @@
 // [--max-iterations N] [--write-solution OUT.hdf5]`: solves an FCLIB local
 // frictional contact problem (core/fc_fallback.h) and prints the iterations,
 // the Siconos error of the forces, the time and what ended the solve.
+#include <unistd.h>
+
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -33,12 +35,6 @@ EFcMethod ParseMethod(const std::string& s) {
 
 // the problem and its solution (r, u = W r + q) as an FCLIB file, for other tools to check
 bool WriteSolution(const SolveOptions& opt, const FcProblem& p, const Eigen::VectorXd& r, const FcMethodResult& res) {
-  std::error_code ec;
-  if (std::filesystem::equivalent(opt.file, opt.write_solution, ec)) {
-    std::fprintf(stderr, "graspsim solve: --write-solution %s is the input file; give another path\n",
-                 opt.write_solution.c_str());
-    return false;
-  }
   std::string error;
   if (!WriteFclibLocal(opt.write_solution, p, "graspsim solve " + opt.file, res.Summary(), &r, &error)) {
     std::fprintf(stderr, "graspsim solve: %s\n", error.c_str());
@@ -47,7 +43,29 @@ bool WriteSolution(const SolveOptions& opt, const FcProblem& p, const Eigen::Vec
   return true;
 }
 
+// --write-solution is checked before the solve: the input itself, or a folder that is
+// not there or not writable, is refused before any work
+bool CheckSolutionPath(const SolveOptions& opt) {
+  if (opt.write_solution.empty()) return true;
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (fs::equivalent(opt.file, opt.write_solution, ec)) {
+    std::fprintf(stderr, "graspsim solve: --write-solution %s is the input file; give another path\n",
+                 opt.write_solution.c_str());
+    return false;
+  }
+  const fs::path parent = fs::path(opt.write_solution).parent_path();
+  const std::string folder = parent.empty() ? std::string(".") : parent.string();
+  if (!fs::is_directory(folder, ec) || access(folder.c_str(), W_OK) != 0) {
+    std::fprintf(stderr, "graspsim solve: --write-solution %s: folder %s does not exist or is not writable\n",
+                 opt.write_solution.c_str(), folder.c_str());
+    return false;
+  }
+  return true;
+}
+
 int RunSolve(const SolveOptions& opt) {
+  if (!CheckSolutionPath(opt)) return kExitUsage;
   FcProblem p;
   std::string error;
   if (!ReadFclibLocal(opt.file, &p, &error)) {

@@ -137,7 +137,7 @@ TEST(SolutionCheck, RefusesToOverwriteItsInput) {
   ASSERT_TRUE(WriteFclibLocal(in, ConeProblem(1.0, 1), "cone", "test", nullptr, &error)) << error;
   const std::string cmd = std::string(GRASPSIM_BINARY) + " solve " + in + " --write-solution " + in + " 2> " + in +
                           ".err > /dev/null";
-  EXPECT_EQ(WEXITSTATUS(std::system(cmd.c_str())), 1);
+  EXPECT_EQ(WEXITSTATUS(std::system(cmd.c_str())), 2);  // refused before the solve, as a bad command line
   std::ifstream err(in + ".err");
   std::string line;
   std::getline(err, line);
@@ -145,6 +145,20 @@ TEST(SolutionCheck, RefusesToOverwriteItsInput) {
   FcProblem p;
   EXPECT_TRUE(ReadFclibLocal(in, &p, &error)) << error;  // untouched
   for (const std::string& f : {in, in + ".err"}) std::remove(f.c_str());
+}
+
+TEST(SolutionCheck, AFolderThatIsNotThereIsRefusedBeforeTheSolve) {
+  const std::string in = TempPath("nofolder.hdf5");
+  std::string error;
+  ASSERT_TRUE(WriteFclibLocal(in, ConeProblem(1.0, 1), "cone", "test", nullptr, &error)) << error;
+  const std::string cmd = std::string(GRASPSIM_BINARY) + " solve " + in + " --write-solution " + in +
+                          ".d/no/such/out.hdf5 > " + in + ".out 2>&1";
+  EXPECT_EQ(WEXITSTATUS(std::system(cmd.c_str())), 2);
+  std::ifstream f(in + ".out");
+  const std::string text((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find("--write-solution " + in + ".d/no/such/out.hdf5"), std::string::npos) << text;
+  EXPECT_EQ(text.find("contacts"), std::string::npos) << "the problem was solved first\n" << text;
+  for (const std::string& f2 : {in, in + ".out"}) std::remove(f2.c_str());
 }
 
 #endif
