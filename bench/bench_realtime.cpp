@@ -45,6 +45,8 @@
 #include "session/frame_recorder.h"
 #include "session/tracked_sim.h"
 #include "tracking/synthetic_hand.h"
+#include "scene/exit_code.h"
+#include "session/console.h"
 
 namespace gs::app {
 namespace {
@@ -200,6 +202,10 @@ bool RunOnce(const std::string& scene, const Session& session, double seconds, b
   const double steal_start = StealMs(po.cpu);
   bool was_late = false;
   for (int64_t k = 0; k < steps; ++k) {
+    if (StopRequested()) {  // Ctrl-C: a session cut short is no measurement
+      *error = "interrupted at step " + std::to_string(k) + " of " + std::to_string(steps) + "; nothing reported";
+      return false;
+    }
     WaitUntilNs(schedule.ReleaseNs(k), po.spin_ns);
     const int64_t begin = MonotonicNs();
     wake_ms.push_back(1e-6 * static_cast<double>(begin - schedule.ReleaseNs(k)));
@@ -315,7 +321,7 @@ EmptyResult RunEmpty(double seconds, double dt, const PacingOptions& po, int lea
   schedule.lead = lead;
   const double steal_start = StealMs(po.cpu);
   bool was_late = false;
-  for (int64_t k = 0; k < r.steps; ++k) {
+  for (int64_t k = 0; k < r.steps && !StopRequested(); ++k) {
     WaitUntilNs(schedule.ReleaseNs(k), po.spin_ns);
     const int64_t end = MonotonicNs();
     wake_ms.push_back(1e-6 * static_cast<double>(end - schedule.ReleaseNs(k)));
@@ -421,9 +427,13 @@ int RunBenchRealtime(const BenchOptions& opt) {
       std::remove((opt.steps_csv + ".tmp").c_str());
     }
     std::fprintf(stderr, "bench realtime: %s\n", error.c_str());
-    return 3;
+    return StopRequested() ? kExitInterrupted : kExitBadInput;
   }
   empty = RunEmpty(seconds, with.dt, po, opt.lead_steps);
+  if (StopRequested()) {
+    std::fprintf(stderr, "bench realtime: interrupted during the empty loop; nothing reported\n");
+    return kExitInterrupted;
+  }
   if (opt.json) {
     PrintJson(without, seconds);
     PrintJson(with, seconds);
