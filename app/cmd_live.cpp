@@ -10,6 +10,8 @@
 #include "scene/paths.h"
 #include "session/frame_recorder.h"
 #include "session/tracker_app.h"
+#include "tracking/lcm_receiver.h"
+#include "tracking/session_log.h"
 
 namespace gs::app {
 namespace {
@@ -22,6 +24,7 @@ struct LiveCmd {
   double duration = 0.0;
   double publish_rate = -1.0;
   std::string lcm_url;
+  std::string tracker = "udp";  ///< udp, or lcm[:CHANNEL]
   bool quiet = false;
   RenderOptions render;  ///< --frames, --video, ... (docs/render.md)
   int rt_priority = 50;  ///< SCHED_FIFO priority of the simulation thread (0: normal)
@@ -53,6 +56,7 @@ int Live(const LiveCmd& c) {
   o.duration = c.duration;
   o.publish_rate = c.publish_rate >= 0 ? c.publish_rate : tc.publish_rate_hz;
   o.lcm_url = c.lcm_url.empty() ? tc.lcm_url : c.lcm_url;
+  if (c.tracker != "udp") o.lcm_channel = c.tracker.size() > 4 ? c.tracker.substr(4) : tracking::kRawChannel;
   o.quiet = c.quiet;
   o.pacing.priority = c.rt_priority;
   std::string moved;
@@ -67,9 +71,12 @@ int Live(const LiveCmd& c) {
                   o.publish_rate);
   else
     std::snprintf(lcm, sizeof(lcm), "LCM publishing off");
-  std::printf("live: scene %s, %zu bodies, %zu tracked fingertips; %.0f Hz simulation; UDP port %d%s%s; %s (Ctrl-C stops)\n",
-              sim->scene().name.c_str(), w.bodies.size(), tc.fingertips.size(), 1.0 / w.params.dt, o.udp.port,
-              o.udp.multicast_group.empty() ? "" : " group ", o.udp.multicast_group.c_str(), lcm);
+  const std::string input = o.lcm_channel.empty()
+                                ? "UDP port " + std::to_string(o.udp.port) +
+                                      (o.udp.multicast_group.empty() ? "" : " group " + o.udp.multicast_group)
+                                : "LCM channel " + o.lcm_channel;
+  std::printf("live: scene %s, %zu bodies, %zu tracked fingertips; %.0f Hz simulation; %s; %s (Ctrl-C stops)\n",
+              sim->scene().name.c_str(), w.bodies.size(), tc.fingertips.size(), 1.0 / w.params.dt, input.c_str(), lcm);
   if (!moved.empty()) std::printf("live: %s\n", moved.c_str());
   std::fflush(stdout);
   // a render thread fed from a fixed pool of snapshots: never waited for
@@ -112,11 +119,24 @@ int Live(const LiveCmd& c) {
               static_cast<unsigned long long>(st.samples_applied), FormatParseErrors(st.parse).c_str(),
               static_cast<unsigned long long>(st.rejected_senders), static_cast<unsigned long long>(st.published));
   if (st.parse.TotalErrors()) std::printf("live: last parse error: %s\n", st.last_parse_error.c_str());
+  std::printf("live: good datagrams (carrying %s, tracked): %llu of %llu, %.2f Hz; %llu not DTrack, %llu without %s%s\n",
+              st.needs.c_str(), static_cast<unsigned long long>(st.good_datagrams),
+              static_cast<unsigned long long>(st.datagrams), st.good_hz, static_cast<unsigned long long>(st.not_dtrack),
+              static_cast<unsigned long long>(st.missing), st.needs.c_str(),
+              st.foreign_messages ? ("; " + std::to_string(st.foreign_messages) +
+                                     " LCM messages of another type on the channel").c_str()
+                                  : "");
+  if (sim->scene().tracked_body >= 0)
+    std::printf("live: %s highest rise %.2f mm%s; up to %d contacts\n",
+                w.bodies[sim->scene().tracked_body].name.c_str(), 1e3 * st.max_rise_m,
+                st.max_rise_m >= 0.02 ? ": grasped and lifted" : "", st.max_contacts);
   const tracking::HealthCounts& h = st.health;
   std::printf("live: tracker events: %d silences, %d recoveries, %d rate changes, %d garbage bursts, %d floods, %d "
-              "bursts from senders outside the allow list; tracker %s at the end\n",
+              "bursts from senders outside the allow list, %d bursts of datagrams that are not DTrack, %d of datagrams "
+              "without %s; "
+              "tracker %s at the end\n",
               h.silences, h.recoveries, h.rate_changes, h.garbage_bursts, h.floods, h.rejected_bursts,
-              st.tracker_state.c_str());
+              h.not_dtrack_bursts, h.missing_bursts, st.needs.c_str(), st.tracker_state.c_str());
   std::printf("{\"live\":true,\"wall_s\":%.6f,\"steps\":%lld,\"sim_rate_hz\":%.3f,\"target_rate_hz\":%.3f,"
               "\"overruns\":%lld,\"skipped_steps\":%lld,\"step_median_ms\":%.4f,\"step_max_ms\":%.4f,"
               "\"datagrams\":%llu,\"tracker_hz\":%.4f,\"parse_errors\":%llu,\"rejected_senders\":%llu,"
@@ -124,7 +144,10 @@ int Live(const LiveCmd& c) {
               "\"rejected_bursts\":%d,\"tracker_state\":\"%s\",\"published\":%llu,\"lcm_ok\":%s,"
               "\"rendering\":%s,\"frames_drawn\":%lld,\"frames_dropped\":%lld,\"pacing\":\"%s\","
               "\"unconverged_steps\":%lld,\"budget_stops\":%lld,\"skipped_solves\":%lld,\"residual_max\":%.3g,"
-              "\"lead_steps\":%d}\n",
+              "\"lead_steps\":%d,\"tracker_input\":\"%s\",\"good_datagrams\":%llu,\"good_hz\":%.4f,"
+              "\"not_dtrack_datagrams\":%llu,\"missing_datagrams\":%llu,\"not_dtrack_bursts\":%d,"
+              "\"missing_bursts\":%d,\"foreign_messages\":%llu,\"max_rise_m\":%.6f,\"lifted\":%s,"
+              "\"max_contacts\":%d}\n",
               st.wall_s, static_cast<long long>(st.steps), st.sim_rate_hz(), 1.0 / w.params.dt,
               static_cast<long long>(st.overruns), static_cast<long long>(st.skipped_steps), st.step_median_ms,
               st.step_max_ms, static_cast<unsigned long long>(st.datagrams), st.tracker_hz,
@@ -134,7 +157,12 @@ int Live(const LiveCmd& c) {
               st.lcm_ok ? "true" : "false", rendering ? "true" : "false", static_cast<long long>(st.frames_drawn),
               static_cast<long long>(st.frames_dropped), st.pacing.Describe().c_str(),
               static_cast<long long>(st.unconverged_steps), static_cast<long long>(st.budget_stops),
-              static_cast<long long>(st.skipped_solves), st.residual_max, o.lead_steps);
+              static_cast<long long>(st.skipped_solves), st.residual_max, o.lead_steps,
+              o.lcm_channel.empty() ? "udp" : ("lcm:" + o.lcm_channel).c_str(),
+              static_cast<unsigned long long>(st.good_datagrams), st.good_hz,
+              static_cast<unsigned long long>(st.not_dtrack), static_cast<unsigned long long>(st.missing),
+              h.not_dtrack_bursts, h.missing_bursts, static_cast<unsigned long long>(st.foreign_messages),
+              st.max_rise_m, st.max_rise_m >= 0.02 ? "true" : "false", st.max_contacts);
   return kExitOk;
 }
 
@@ -159,7 +187,24 @@ void AddLiveCommand(CLI::App& app, int* exit_code) {
   cmd->add_option("--publish-rate", c->publish_rate, "LCM poses and contacts per second (0: none; default: the scene's)")
       ->type_name("HZ")
       ->check(InRange(0.0, 1e5, "a rate in messages per second"));
-  cmd->add_option("--lcm-url", c->lcm_url, "LCM URL (default: the scene's, else LCM's default udpm)")->type_name("URL");
+  cmd->add_option("--lcm-url", c->lcm_url,
+                  "LCM URL for publishing and for --tracker lcm (default: the scene's, else LCM's default udpm)")
+      ->type_name("URL");
+  cmd->add_option("--tracker", c->tracker,
+                  "where the DTrack datagrams come from: udp (the port) or lcm[:CHANNEL] (graspsim.dtrack_datagram_t "
+                  "messages at --lcm-url, from lcm-logplayer or graspsim bridge; default channel DTRACK_RAW)")
+      ->type_name("udp|lcm[:CHANNEL]")
+      ->check(CLI::Validator(
+          [](std::string& v) -> std::string {
+            if (v == "udp" || v == "lcm") return "";
+            if (v.rfind("lcm:", 0) == 0) {
+              const std::string bad = tracking::CheckLcmChannel(v.substr(4));
+              return bad.empty() ? "" : v + ": " + bad;
+            }
+            return "'" + v + "' is not a tracker input: udp, lcm or lcm:CHANNEL";
+          },
+          "", ""))
+      ->capture_default_str();
   cmd->add_flag("--quiet", c->quiet, "no status line");
   cmd->add_option("--rt-priority", c->rt_priority,
                   "SCHED_FIFO priority of the simulation thread, 0 for normal scheduling (needs CAP_SYS_NICE; a "
@@ -195,12 +240,15 @@ void AddLiveCommand(CLI::App& app, int* exit_code) {
                   "ten seconds at 1 kHz on UDP port 5000; once it prints 'live: listening on UDP port 5000', run "
                   "graspsim send --synthetic --port 5000 in another terminal"},
                  {"graspsim live --video live.mp4 --lcm-url 'file:///tmp/live.lcmlog?mode=w'",
-                  "until Ctrl-C, with a video and the LCM messages written to a log file"}},
+                  "until Ctrl-C, with a video and the LCM messages written to a log file"},
+                 {"graspsim live --tracker lcm --duration 5",
+                  "DTrack datagrams from LCM channel DTRACK_RAW: once it prints 'live: listening on LCM channel', run "
+                  "lcm-logplayer assets/demo_session.lcmlog (or graspsim bridge on the tracker's host)"}},
                 {{kExitOk, "the session ended (--duration or Ctrl-C) and its summary is printed"},
                  {kExitFailure, "the video could not be finished"},
                  {kExitUsage, "bad command line, or a render option that cannot be met"},
-                 {kExitBadInput, "the scene was refused (or has no tracker section), or the UDP port cannot be "
-                                 "opened"}});
+                 {kExitBadInput, "the scene was refused (or has no tracker section), the UDP port cannot be "
+                                 "opened, or (--tracker lcm) LCM is unavailable at the URL"}});
   cmd->callback([c, cpu, exit_code]() {
     c->cpu_given = cpu->count() > 0;
     *exit_code = Live(*c);

@@ -21,6 +21,7 @@ void AddReplayCommand(CLI::App& app, int* exit_code);
 void AddLiveCommand(CLI::App& app, int* exit_code);
 void AddStressCommand(CLI::App& app, int* exit_code);
 void AddPlotCommand(CLI::App& app, int* exit_code);
+void AddBridgeCommand(CLI::App& app, int* exit_code);
 
 /// --frames, --video, --size, --fps, --force-scale, --arrows, --no-hud (run, replay, live).
 void AddRenderOptions(CLI::App* cmd, RenderOptions* opt);

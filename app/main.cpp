@@ -28,6 +28,7 @@ int main(int argc, char** argv) {
   gs::app::AddLiveCommand(app, &exit_code);
   gs::app::AddStressCommand(app, &exit_code);
   gs::app::AddPlotCommand(app, &exit_code);
+  gs::app::AddBridgeCommand(app, &exit_code);
   for (CLI::App* cmd : app.get_subcommands({})) cmd->group("Commands");
   gs::app::SetHelpFooter(
       &app,
@@ -58,7 +59,8 @@ int main(int argc, char** argv) {
   }
   // a command with a set amount of work that was stopped says so in its exit code;
   // live and record run until they are stopped, and that is their normal end
-  const bool runs_until_stopped = app.got_subcommand("live") || app.got_subcommand("record");
+  const bool runs_until_stopped = app.got_subcommand("live") || app.got_subcommand("record") ||
+                                  app.got_subcommand("bridge");
   if (gs::app::StopRequested() && !runs_until_stopped && exit_code != gs::app::kExitUsage &&
       exit_code != gs::app::kExitBadInput)
     return gs::app::kExitInterrupted;

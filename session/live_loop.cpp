@@ -7,12 +7,14 @@
 #include <atomic>
 #include <chrono>
 #include <cstdio>
+#include <memory>
 #include <thread>
 
 #include "session/frame_recorder.h"
 #include "session/tracker_app.h"
 #include "graspsim/contacts_t.hpp"
 #include "graspsim/poses_t.hpp"
+#include "tracking/lcm_receiver.h"
 #include "tracking/mailbox.h"
 #include "tracking/session_log.h"
 #include "tracking/tracker_health.h"
@@ -160,18 +162,35 @@ double Percentile(std::vector<double> v, double p) {
 bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::string* error, FrameRecorder* frames) {
   World& w = sim.world();
   const tracking::TrackerConfig cfg = sim.config();
-  tracking::UdpReceiver rx;
-  if (!rx.Open(opt.udp, error)) return false;
-  // from here on, datagrams sent to the port are queued for the receiver (a sender may start)
-  std::printf("live: listening on UDP port %d\n", rx.port());
+  std::unique_ptr<tracking::DatagramSource> source;
+  if (opt.lcm_channel.empty()) {
+    auto udp = std::make_unique<tracking::UdpReceiver>();
+    if (!udp->Open(opt.udp, error)) return false;
+    source = std::move(udp);
+  } else {
+    auto lcm_in = std::make_unique<tracking::LcmReceiver>();
+    if (!lcm_in->Open(opt.lcm_url, opt.lcm_channel, error)) return false;
+    source = std::move(lcm_in);
+  }
+  tracking::DatagramSource& rx = *source;
+  // from here on, datagrams sent to the port (or channel) are queued for the receiver (a sender may start)
+  std::printf("live: listening on %s\n", rx.Describe().c_str());
   std::fflush(stdout);
+  // what a good datagram carries, and the names of what may be missing (code -1: the hand; i: fingertip i)
+  std::vector<std::string> missing_labels;
+  for (int code = -1; code < static_cast<int>(cfg.fingertips.size()); ++code)
+    missing_labels.push_back(tracking::MissingLabel(cfg, code));
+  stats->needs = cfg.source == tracking::ESource::Hand ? missing_labels[0] : std::string("bodies");
+  for (size_t i = 0; cfg.source == tracking::ESource::Bodies && i < cfg.fingertips.size(); ++i)
+    stats->needs += (i ? ", " : " ") + std::to_string(cfg.fingertips[i].body_id);
 
   // receiver thread: parse, map, hand over the newest sample
   tracking::LatestMailbox<tracking::TargetSample> samples;
   tracking::DTrackParser parser;
   tracking::DTrackFrame frame;
-  std::atomic<uint64_t> datagrams{0}, parse_errors{0}, bad_datagrams{0};
-  std::atomic<int64_t> first_ns{-1}, last_ns{-1};
+  std::atomic<uint64_t> datagrams{0}, parse_errors{0}, bad_datagrams{0}, good{0}, not_dtrack{0}, missing{0};
+  std::atomic<int64_t> first_ns{-1}, last_ns{-1}, first_good_ns{-1}, last_good_ns{-1};
+  std::atomic<int> missing_code{-1};
   tracking::TargetSample rx_sample;
   rx.Start([&](const tracking::Datagram& d) {
     int errors;
@@ -191,7 +210,20 @@ bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::str
     last_ns = d.monotonic_ns;
     parse_errors = parser.stats().TotalErrors();
     if (errors > 0) bad_datagrams.fetch_add(1);
-    datagrams.fetch_add(1);
+    datagrams.fetch_add(1);  // before its category: a category counted is never ahead of the total
+    int code = -1;
+    switch (tracking::JudgeFrame(frame, errors, cfg, rx_sample, &code)) {
+      case tracking::ECarries::Good:
+        if (first_good_ns.load(std::memory_order_relaxed) < 0) first_good_ns = d.monotonic_ns;
+        last_good_ns = d.monotonic_ns;
+        good.fetch_add(1);
+        break;
+      case tracking::ECarries::NotDTrack: not_dtrack.fetch_add(1); break;
+      case tracking::ECarries::Missing:
+        missing_code = code;
+        missing.fetch_add(1);
+        break;
+    }
   });
 
   // simulation thread
@@ -211,6 +243,10 @@ bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::str
   std::atomic<double> last_step_ms{0.0};
   w.params.budget_may_skip_solve = opt.skip_late_solves;
   double residual_max = 0.0;  // simulation thread; read after it is joined
+  const int tracked = sim.scene().tracked_body;
+  const double start_z = tracked >= 0 ? w.bodies[tracked].pose.t.z() : 0.0;
+  double max_rise = 0.0;  // simulation thread, as residual_max
+  int max_contacts = 0;
   const int64_t unconverged_before = w.unconverged_steps, budget_before = w.budget_stopped_steps;
   const int64_t skipped_solves_before = w.skipped_solves;
   std::vector<double> step_ms;
@@ -249,6 +285,8 @@ bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::str
       sim.Step();
       const int64_t end = SteadyNanoseconds();
       if (!w.profile.solve_skipped) residual_max = std::max(residual_max, w.profile.residual);
+      if (tracked >= 0) max_rise = std::max(max_rise, w.bodies[tracked].pose.t.z() - start_z);
+      max_contacts = std::max(max_contacts, w.profile.contacts);
       if (fresh && stats->latency_us.size() < stats->latency_us.capacity()) {
         // the step in progress when it arrived, and the one that applied it: the
         // step the schedule released last before its arrival, or, when the loop runs
@@ -305,7 +343,7 @@ bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::str
   const bool tty = StdoutIsTerminal() && opt.status && !opt.quiet;
   const int64_t t0 = SteadyNanoseconds();
   int64_t last_status = t0;
-  uint64_t last_datagrams = 0;
+  uint64_t last_datagrams = 0, last_good = 0;
   // the tracker's health, judged from the receiver's counters; events are printed as they happen
   tracking::HealthOptions ho;
   ho.silent_after_s = opt.silent_after_s;
@@ -321,6 +359,9 @@ bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::str
     tracking::HealthCounters hc;
     hc.now_ns = now;
     hc.last_arrival_ns = last_ns.load();  // before the counts: a datagram counted is never newer than it
+    hc.not_dtrack = not_dtrack.load();  // before the total: never more than it (counted after it)
+    hc.missing = missing.load();
+    hc.missing_label = missing_labels[static_cast<size_t>(missing_code.load() + 1)].c_str();
     hc.datagrams = datagrams.load();
     hc.bad_datagrams = bad_datagrams.load();
     hc.rejected = rx.stats().rejected_sender.load();
@@ -334,14 +375,15 @@ bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::str
     if (ne && !opt.quiet) std::fflush(stdout);
     const double since = 1e-9 * static_cast<double>(now - last_status);
     if (opt.status && !opt.quiet && since >= (tty ? 0.25 : 5.0)) {
-      const uint64_t n = datagrams.load();
+      const uint64_t n = datagrams.load(), ng = good.load();
       char render[80] = "";
       if (frames)
         std::snprintf(render, sizeof render, "  frames %d (%d dropped)", frames->frames_drawn(),
                       frames->frames_dropped());
-      std::printf("%s  t=%7.2f s  tracker %-9s %6.1f Hz  parse errors %llu  rejected %llu  step %.3f ms  overruns %lld  skipped %lld%s%s",
+      std::printf("%s  t=%7.2f s  tracker %-10s %6.1f Hz good of %6.1f Hz  parse errors %llu  rejected %llu  step %.3f ms  overruns %lld  skipped %lld%s%s",
                   tty ? "\r" : "", 1e-9 * static_cast<double>(now - start_ns), health.state(),
-                  static_cast<double>(n - last_datagrams) / since, static_cast<unsigned long long>(parse_errors.load()),
+                  static_cast<double>(ng - last_good) / since, static_cast<double>(n - last_datagrams) / since,
+                  static_cast<unsigned long long>(parse_errors.load()),
                   static_cast<unsigned long long>(hc.rejected), last_step_ms.load(),
                   static_cast<long long>(overruns.load()), static_cast<long long>(skipped.load()), render,
                   tty ? "   " : "\n");
@@ -349,6 +391,7 @@ bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::str
       std::fflush(stdout);
       last_status = now;
       last_datagrams = n;
+      last_good = ng;
     }
   }
   stop = true;
@@ -378,6 +421,14 @@ bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::str
   stats->rejected_senders = rx.stats().rejected_sender.load();
   const double span = 1e-9 * static_cast<double>(last_ns.load() - first_ns.load());
   stats->tracker_hz = stats->datagrams > 1 && span > 0 ? static_cast<double>(stats->datagrams - 1) / span : 0.0;
+  stats->good_datagrams = good.load();
+  stats->not_dtrack = not_dtrack.load();
+  stats->missing = missing.load();
+  const double good_span = 1e-9 * static_cast<double>(last_good_ns.load() - first_good_ns.load());
+  stats->good_hz = stats->good_datagrams > 1 && good_span > 0 ? static_cast<double>(stats->good_datagrams - 1) / good_span : 0.0;
+  stats->foreign_messages = rx.stats().foreign_messages.load();
+  stats->max_rise_m = max_rise;
+  stats->max_contacts = max_contacts;
   stats->step_median_ms = Percentile(step_ms, 0.5);
   stats->step_p99_ms = Percentile(step_ms, 0.99);
   stats->step_max_ms = step_ms.empty() ? 0.0 : *std::max_element(step_ms.begin(), step_ms.end());

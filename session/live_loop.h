@@ -24,6 +24,9 @@ namespace gs::app {
 
 struct LiveOptions {
   tracking::UdpOptions udp;
+  /// Non-empty: the datagrams come from this LCM channel at lcm_url
+  /// (graspsim.dtrack_datagram_t, tracking/lcm_receiver.h) instead of UDP.
+  std::string lcm_channel;
   double duration = 0.0;        ///< s; 0: until Ctrl-C
   double publish_rate = 100.0;  ///< Hz; 0: no publishing
   std::string lcm_url;          ///< empty: LCM's default
@@ -55,6 +58,14 @@ struct LiveStats {
   uint64_t datagrams = 0;       ///< received and parsed
   uint64_t samples_applied = 0; ///< taken from the mailbox by the simulation (the rest were stale)
   double tracker_hz = 0.0;      ///< received rate: (n - 1) / (last - first arrival)
+  /// datagrams carrying every tracked object the scene needs (tracking::JudgeFrame), their
+  /// rate as tracker_hz's, and the others: not DTrack at all, or without what is needed
+  uint64_t good_datagrams = 0, not_dtrack = 0, missing = 0;
+  double good_hz = 0.0;
+  std::string needs;            ///< what a good datagram carries: "hand 0", "bodies 1, 2"
+  uint64_t foreign_messages = 0;  ///< LCM input: messages on the channel of another type
+  double max_rise_m = 0.0;      ///< the scene's tracked body: highest rise above its start
+  int max_contacts = 0;
   tracking::ParseStats parse;
   std::string last_parse_error;  ///< "line 3 (6d): object 1: ..." when there were errors
   uint64_t rejected_senders = 0;

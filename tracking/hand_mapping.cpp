@@ -46,4 +46,31 @@ void MapFrame(const DTrackFrame& frame, const TrackerConfig& c, TargetSample* ou
   }
 }
 
+ECarries JudgeFrame(const DTrackFrame& frame, int errors, const TrackerConfig& c, const TargetSample& sample,
+                    int* missing_code) {
+  *missing_code = 0;
+  if (frame.present == 0 && errors == 0) return ECarries::NotDTrack;
+  if (c.source == ESource::Hand && !frame.FindHand(c.hand_id)) {
+    *missing_code = -1;
+    return ECarries::Missing;
+  }
+  for (int i = 0; i < sample.count; ++i) {
+    if (!sample.valid[i]) {
+      *missing_code = i;
+      return ECarries::Missing;
+    }
+  }
+  return ECarries::Good;
+}
+
+std::string MissingLabel(const TrackerConfig& c, int missing_code) {
+  if (c.source == ESource::Hand) {
+    const std::string hand = "hand " + std::to_string(c.hand_id);
+    if (missing_code < 0 || missing_code >= static_cast<int>(c.fingertips.size())) return hand;
+    return "finger " + std::to_string(c.fingertips[missing_code].finger) + " of " + hand;
+  }
+  if (missing_code < 0 || missing_code >= static_cast<int>(c.fingertips.size())) return "the tracked bodies";
+  return "body " + std::to_string(c.fingertips[missing_code].body_id);
+}
+
 }  // namespace gs::tracking

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstdint>
+#include <string>
 
 #include "tracking/dtrack_parser.h"
 #include "tracking/tracker_config.h"
@@ -32,5 +33,21 @@ Pose RoomToWorld(const TrackerConfig& c, const Vec3& room_position, const Mat3& 
 
 /// Fills `out` (count, valid, pose) from a parsed frame.
 void MapFrame(const DTrackFrame& frame, const TrackerConfig& c, TargetSample* out);
+
+/// What a datagram carries for the scene (tracker health, docs/tracking.md).
+enum class ECarries {
+  Good,       ///< every fingertip's hand or body, tracked
+  NotDTrack,  ///< no DTrack line at all and no parse error (random bytes, another protocol)
+  Missing,    ///< DTrack, but a needed hand or body is absent or untracked (DTrack lists tracked ones only)
+};
+
+/// Judges a parsed datagram (`errors`: the parser's count for it) and the sample
+/// MapFrame made of it. With Missing, *missing_code says what is missing first: -1 the
+/// hand itself (source hand), else the fingertip index (its finger or body).
+ECarries JudgeFrame(const DTrackFrame& frame, int errors, const TrackerConfig& c, const TargetSample& sample,
+                    int* missing_code);
+
+/// "hand 0", "finger 4 of hand 0", "body 3": what a missing code names.
+std::string MissingLabel(const TrackerConfig& c, int missing_code);
 
 }  // namespace gs::tracking

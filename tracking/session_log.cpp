@@ -69,6 +69,8 @@ uint64_t BigEndian(const uint8_t* p, int bytes) {
   return v;
 }
 
+}  // namespace
+
 // dtrack_datagram_t, after its 8-byte type hash: utime, monotonic_utime, sequence
 // (int64), source (int32 length with its NUL, bytes), size (int32), data (size bytes)
 bool DecodeDatagram(const uint8_t* p, size_t n, RecordedDatagram* out, std::string* why) {
@@ -103,8 +105,6 @@ bool DecodeDatagram(const uint8_t* p, size_t n, RecordedDatagram* out, std::stri
   out->data.assign(reinterpret_cast<const char*>(p + at), static_cast<size_t>(size));
   return true;
 }
-
-}  // namespace
 
 bool SessionReader::Fail(const std::string& what) {
   error_ = path_ + ": " + what;

@@ -32,6 +32,10 @@ struct RecordedDatagram {
 /// Encodes a datagram as an LCM message (for logs and publishing).
 std::vector<uint8_t> EncodeDatagram(const Datagram& d);
 
+/// Decodes a graspsim.dtrack_datagram_t message (its 8-byte type hash first), checking
+/// every length against the n bytes given. False with *why ("is not a ...") otherwise.
+bool DecodeDatagram(const uint8_t* p, size_t n, RecordedDatagram* out, std::string* why);
+
 class SessionWriter {
  public:
   SessionWriter();

@@ -19,6 +19,10 @@ const char* HealthEventName(EHealthEvent e) {
     case EHealthEvent::FloodOver: return "flood_over";
     case EHealthEvent::Rejected: return "rejected";
     case EHealthEvent::RejectedOver: return "rejected_over";
+    case EHealthEvent::NotDTrack: return "not_dtrack";
+    case EHealthEvent::NotDTrackOver: return "not_dtrack_over";
+    case EHealthEvent::Missing: return "missing";
+    case EHealthEvent::MissingOver: return "missing_over";
   }
   return "?";
 }
@@ -37,7 +41,9 @@ const char* TrackerHealth::state() const {
   if (silent_) return "silent";
   if (garbage_) return "garbage";
   if (rejecting_) return "rejecting";
-  if (rate_hz_ <= 0.0 && window_rate_hz_ <= 0.0) return "waiting";
+  if (not_dtrack_) return "not-dtrack";
+  if (missing_) return "missing";
+  if (rate_hz_ <= 0.0 && window_good_hz_ <= 0.0) return "waiting";
   return "ok";
 }
 
@@ -87,7 +93,12 @@ int TrackerHealth::Update(const HealthCounters& c, HealthEvent* out) {
   const uint64_t got = c.datagrams - window_first_.datagrams;
   const uint64_t bad = c.bad_datagrams - window_first_.bad_datagrams;
   const uint64_t rejected = c.rejected - window_first_.rejected;
+  const uint64_t not_dtrack = c.not_dtrack - window_first_.not_dtrack;
+  const uint64_t missing = c.missing - window_first_.missing;
+  // counters sampled while the receiver counts: a datagram's category may show a sample later than it
+  const uint64_t good = got > not_dtrack + missing ? got - not_dtrack - missing : 0;
   window_rate_hz_ = static_cast<double>(got) / span;
+  window_good_hz_ = static_cast<double>(good) / span;
   const double rate = window_rate_hz_;
 
   const bool flood = rate_hz_ > 0 ? rate > opt_.flood_factor * rate_hz_ && rate > opt_.flood_hz / 10
@@ -137,9 +148,42 @@ int TrackerHealth::Update(const HealthCounters& c, HealthEvent* out) {
                   static_cast<unsigned long long>(c.rejected));
   }
 
-  // the tracker's rate: settled when a clean window gives it; changed when two
-  // clean windows in a row agree on a new one
-  const bool clean = !window_disturbed_ && !silent_ && !flood && !flooding_ && got > 0 && bad == 0;
+  if (not_dtrack > 0 && !not_dtrack_) {
+    not_dtrack_ = true;
+    ++counts_.not_dtrack_bursts;
+    HealthEvent* e = Emit(out, &n, EHealthEvent::NotDTrack, t);
+    std::snprintf(e->text, sizeof(e->text),
+                  "datagrams are not DTrack: %llu of %llu in the last %.2f s hold no DTrack line (kept the last good targets)",
+                  static_cast<unsigned long long>(not_dtrack), static_cast<unsigned long long>(got), span);
+  } else if (not_dtrack == 0 && not_dtrack_) {
+    not_dtrack_ = false;
+    HealthEvent* e = Emit(out, &n, EHealthEvent::NotDTrackOver, t);
+    std::snprintf(e->text, sizeof(e->text), "no more datagrams that are not DTrack");
+  }
+
+  // of the DTrack datagrams, the share that lacks the hand or bodies the scene needs
+  const uint64_t dtrack = got > not_dtrack ? got - not_dtrack : 0;
+  const double missing_share = dtrack > 0 ? static_cast<double>(missing) / static_cast<double>(dtrack) : 0.0;
+  const char* what = c.missing_label ? c.missing_label : "the tracked objects";
+  if (dtrack > 0 && missing_share >= opt_.missing_fraction && !missing_) {
+    missing_ = true;
+    ++counts_.missing_bursts;
+    HealthEvent* e = Emit(out, &n, EHealthEvent::Missing, t);
+    std::snprintf(e->text, sizeof(e->text),
+                  "%s absent from %.0f %% of datagrams in the last %.2f s (%llu of %llu; fingertips hold, then release)",
+                  what, 100.0 * missing_share, span, static_cast<unsigned long long>(missing),
+                  static_cast<unsigned long long>(dtrack));
+  } else if (missing_ && dtrack > 0 && missing_share < 0.2 * opt_.missing_fraction) {
+    missing_ = false;
+    HealthEvent* e = Emit(out, &n, EHealthEvent::MissingOver, t);
+    std::snprintf(e->text, sizeof(e->text), "%s tracked again (in %.0f %% of datagrams)", what,
+                  100.0 * (1.0 - missing_share));
+  }
+
+  // the tracker's rate (of good datagrams): settled when a clean window gives it; changed
+  // when two clean windows in a row agree on a new one
+  const bool clean = !window_disturbed_ && !silent_ && !flood && !flooding_ && got > 0 && bad == 0 &&
+                     not_dtrack == 0 && missing == 0;
   if (clean) {
     const double tol = opt_.rate_tolerance;
     if (rate_hz_ <= 0.0) {

@@ -3,7 +3,9 @@
 // outside the allow list, the last arrival) are sampled a few times a second by
 // live's calling thread, and TrackerHealth turns them into events an operator can
 // act on: the tracker went silent, came back, changed its frame rate, sends
-// garbage, floods the port, or someone outside the allow list sends to it.
+// garbage, floods the port, or someone outside the allow list sends to it; and
+// whether the datagrams carry what the scene needs (DTrack at all; the configured
+// hand or bodies, tracked): the settled rate is that of the good datagrams only.
 // Pure logic on the times and counts passed in (no clock, no I/O, no allocation
 // after construction), so it is tested with made-up timelines.
 #pragma once
@@ -19,6 +21,12 @@ struct HealthCounters {
   uint64_t rejected = 0;          ///< datagrams from senders outside the allow list
   uint32_t last_rejected_addr = 0;  ///< IPv4, network byte order
   int64_t last_arrival_ns = -1;   ///< of the newest accepted datagram; -1: none yet
+  /// What the datagrams carry (judged by the receiver: tracking/hand_mapping.h JudgeFrame).
+  /// A datagram is good when it is neither of these: it carries every tracked object the
+  /// scene needs. Left at 0, every accepted datagram counts as good.
+  uint64_t not_dtrack = 0;        ///< datagrams with no DTrack line in them
+  uint64_t missing = 0;           ///< DTrack datagrams without (or with untracked) what the scene needs
+  const char* missing_label = nullptr;  ///< what the last of those lacked: "hand 0", "body 3" (static)
 };
 
 enum class EHealthEvent {
@@ -32,6 +40,10 @@ enum class EHealthEvent {
   FloodOver,
   Rejected,     ///< datagrams from a sender outside the allow list
   RejectedOver,
+  NotDTrack,    ///< datagrams that hold no DTrack line at all
+  NotDTrackOver,
+  Missing,      ///< DTrack datagrams without the hand or bodies the scene needs
+  MissingOver,
 };
 const char* HealthEventName(EHealthEvent e);
 
@@ -47,10 +59,14 @@ struct HealthOptions {
   double rate_tolerance = 0.2;   ///< a window rate this far (relative) from the settled rate is a change
   double flood_factor = 4.0;     ///< above this times the settled rate: a flood
   double flood_hz = 2000.0;      ///< with no settled rate yet: above this is a flood
+  /// a window in which at least this fraction of the DTrack datagrams lacks what the
+  /// scene needs begins a Missing event; it ends with a window where under a fifth of that does
+  double missing_fraction = 0.5;
 };
 
 struct HealthCounts {
   int silences = 0, recoveries = 0, rate_changes = 0, garbage_bursts = 0, floods = 0, rejected_bursts = 0;
+  int not_dtrack_bursts = 0, missing_bursts = 0;
 };
 
 class TrackerHealth {
@@ -66,7 +82,9 @@ class TrackerHealth {
   bool flooding() const { return flooding_; }
   double settled_rate_hz() const { return rate_hz_; }
   double window_rate_hz() const { return window_rate_hz_; }
-  /// "ok", "waiting", "silent", "flood", "garbage", "rejecting"
+  /// good datagrams (carrying what the scene needs) per second over the last window
+  double window_good_hz() const { return window_good_hz_; }
+  /// "ok", "waiting", "silent", "flood", "garbage", "rejecting", "not-dtrack", "missing"
   const char* state() const;
   const HealthCounts& counts() const { return counts_; }
 
@@ -88,7 +106,8 @@ class TrackerHealth {
   // the settled rate and a candidate new one
   double rate_hz_ = 0.0;
   double candidate_hz_ = 0.0;
-  bool flooding_ = false, garbage_ = false, rejecting_ = false;
+  double window_good_hz_ = 0.0;
+  bool flooding_ = false, garbage_ = false, rejecting_ = false, not_dtrack_ = false, missing_ = false;
   HealthCounts counts_;
 };
 

@@ -43,32 +43,49 @@ struct UdpStats {
   /// Datagrams the kernel dropped because the socket's receive buffer was full
   /// (SO_RXQ_OVFL): they never reached the socket, so no reader could have seen them.
   std::atomic<uint64_t> kernel_drops{0};
+  /// LCM input (LcmReceiver): messages on the channel that are not a graspsim.dtrack_datagram_t
+  std::atomic<uint64_t> foreign_messages{0};
 };
 
 /// Steady-clock nanoseconds (the clock Datagram::monotonic_ns uses).
 int64_t SteadyNanoseconds();
 
-class UdpReceiver {
+/// Where live's datagrams come from: a UDP socket (UdpReceiver) or an LCM channel
+/// (LcmReceiver, tracking/lcm_receiver.h). Each hands every datagram, stamped with its
+/// arrival, to the callback on a thread of its own.
+class DatagramSource {
+ public:
+  using Callback = std::function<void(const Datagram&)>;
+  virtual ~DatagramSource() = default;
+  virtual void Start(Callback callback) = 0;
+  /// Stops and joins the thread (within about 50 ms).
+  virtual void Stop() = 0;
+  virtual const UdpStats& stats() const = 0;
+  /// "UDP port 5000", "LCM channel DTRACK_RAW (udpm://...)"
+  virtual std::string Describe() const = 0;
+};
+
+class UdpReceiver : public DatagramSource {
  public:
   static constexpr size_t kBufferBytes = 65536;
-  using Callback = std::function<void(const Datagram&)>;
 
   UdpReceiver() = default;
   UdpReceiver(const UdpReceiver&) = delete;
   UdpReceiver& operator=(const UdpReceiver&) = delete;
-  ~UdpReceiver();
+  ~UdpReceiver() override;
 
   /// Creates and binds the socket. False with a message naming what failed.
   bool Open(const UdpOptions& options, std::string* error);
   /// Starts the receiver thread.
-  void Start(Callback callback);
+  void Start(Callback callback) override;
   /// Stops and joins the thread (within about 50 ms); closes the socket.
-  void Stop();
+  void Stop() override;
+  std::string Describe() const override { return "UDP port " + std::to_string(port_); }
 
   int port() const { return port_; }
   /// The receive buffer the kernel granted (Linux reports twice the size asked for).
   int receive_buffer_bytes() const { return rcvbuf_granted_; }
-  const UdpStats& stats() const { return stats_; }
+  const UdpStats& stats() const override { return stats_; }
 
  private:
   void Loop();

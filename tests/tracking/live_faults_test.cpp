@@ -17,6 +17,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <random>
 #include <thread>
 
 #include "test_util.h"
@@ -135,6 +136,81 @@ TEST(LiveFaults, ReportsEachTrackerFaultAndRecovers) {
   EXPECT_GT(JsonNumber(json, "sim_rate_hz"), 100.0) << out;
 #endif
   std::printf("%s\n", json.c_str());
+}
+
+// Datagrams that arrive but do not carry what the scene needs are not a healthy
+// tracker: one live run (hand 0, tracked_hand_light.yaml) gets random bytes at 100 Hz,
+// then real DTrack frames (fr, ts, 6d) without a gl hand at 100 Hz, then the synthetic
+// hand. The first two give their events and no "tracker at ... Hz"; the good rate
+// appears only with the hand.
+TEST(LiveFaults, DatagramsWithoutWhatTheSceneNeedsAreNotAGoodTracker) {
+  const int port = test::FreeUdpPort();
+  const std::string scene = std::string(GRASPSIM_TEST_DATA) + "/tracking/tracked_hand_light.yaml";
+  test::Background live(test::Binary() + " live " + scene + " --port " + std::to_string(port) +
+                        " --allow 127.0.0.1 --duration 8 --publish-rate 0");
+  ASSERT_TRUE(live.ReadUntil("live: listening on UDP port " + std::to_string(port))) << live.Wait().output;
+  FaultInjector tracker("127.0.0.1", port);
+  ASSERT_TRUE(tracker.ok());
+  // 0 - 1.5 s: random bytes (fixed seed; no NUL, so every byte is looked at)
+  std::mt19937 rng(22);
+  std::string noise(300, ' ');
+  for (char& ch : noise) ch = static_cast<char>(1 + rng() % 255);
+  const uint64_t random_sent = tracker.Send(noise, 100, 1.5);
+  // 1.5 - 3 s: DTrack frames with a 6d body and no hand
+  const uint64_t handless_sent = tracker.Send(
+      "fr 12\r\nts 1.000000\r\n6dcal 1\r\n6d 1 [0 1.000][10.0 20.0 30.0][1 0 0 0 1 0 0 0 1]\r\n", 100, 1.5);
+  // 3 - 5.9 s: the synthetic hand
+  const test::Result send = test::Run(test::Binary() + " send --synthetic --port " + std::to_string(port));
+  ASSERT_EQ(send.code, 0) << send.output;
+  const test::Result r = live.Wait();
+  ASSERT_EQ(r.code, 0) << r.output;
+  const std::string& out = r.output;
+  const size_t not_dtrack = Find(out, "datagrams are not DTrack: ");
+  const size_t absent = Find(out, "hand 0 absent from 100 % of datagrams in the last ");
+  const size_t rate = Find(out, "tracker at ");
+  ASSERT_NE(not_dtrack, std::string::npos) << out;
+  ASSERT_NE(absent, std::string::npos) << out;
+  ASSERT_NE(rate, std::string::npos) << "the synthetic hand gives a good rate:\n" << out;
+  // in that order: no good rate while the datagrams lacked the hand
+  EXPECT_LT(not_dtrack, absent) << out;
+  EXPECT_LT(absent, rate) << out;
+  EXPECT_NE(Find(out, "hand 0 tracked again", absent), std::string::npos) << out;
+  const std::string json = out.substr(out.rfind("{\"live\""));
+  EXPECT_EQ(JsonNumber(json, "not_dtrack_datagrams"), static_cast<double>(random_sent)) << out;
+  EXPECT_EQ(JsonNumber(json, "missing_datagrams"), static_cast<double>(handless_sent)) << out;
+  EXPECT_EQ(JsonNumber(json, "good_datagrams"), 291) << out;
+  EXPECT_EQ(JsonNumber(json, "datagrams"), static_cast<double>(random_sent + handless_sent + 291)) << out;
+  EXPECT_EQ(JsonNumber(json, "not_dtrack_bursts"), 1) << out;
+  EXPECT_EQ(JsonNumber(json, "missing_bursts"), 1) << out;
+  EXPECT_EQ(JsonNumber(json, "rate_changes"), 0) << out;
+  // the good rate is the hand's 100 Hz, over the good datagrams only
+  EXPECT_NEAR(JsonNumber(json, "good_hz"), 100.0, 10.0) << out;
+}
+
+// Random bytes alone: all datagrams arrive at about 100 Hz, none is good; the summary
+// says so and the state is not "ok".
+TEST(LiveFaults, RandomBytesGiveNoGoodRate) {
+  const int port = test::FreeUdpPort();
+  const std::string scene = std::string(GRASPSIM_TEST_DATA) + "/tracking/tracked_hand_light.yaml";
+  test::Background live(test::Binary() + " live " + scene + " --port " + std::to_string(port) +
+                        " --duration 3 --publish-rate 0");
+  ASSERT_TRUE(live.ReadUntil("live: listening on UDP port " + std::to_string(port))) << live.Wait().output;
+  FaultInjector tracker("127.0.0.1", port);
+  ASSERT_TRUE(tracker.ok());
+  std::mt19937 rng(7);
+  std::string noise(200, ' ');
+  for (char& ch : noise) ch = static_cast<char>(1 + rng() % 255);
+  const uint64_t sent = tracker.Send(noise, 100, 4.0);  // past live's end: the stream never stops while it listens
+  const test::Result r = live.Wait();
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(Find(r.output, "datagrams are not DTrack: "), std::string::npos) << r.output;
+  EXPECT_EQ(Find(r.output, "tracker at "), std::string::npos) << r.output;
+  const std::string json = r.output.substr(r.output.rfind("{\"live\""));
+  EXPECT_GT(JsonNumber(json, "datagrams"), 100) << r.output;
+  EXPECT_LE(JsonNumber(json, "datagrams"), static_cast<double>(sent)) << r.output;
+  EXPECT_EQ(JsonNumber(json, "good_datagrams"), 0) << r.output;
+  EXPECT_EQ(JsonNumber(json, "good_hz"), 0) << r.output;
+  EXPECT_NE(json.find("\"tracker_state\":\"not-dtrack\""), std::string::npos) << r.output;
 }
 
 }  // namespace
