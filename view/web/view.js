@@ -48,7 +48,7 @@ function splatMaterial(rgb, size) {
         vec2 c = gl_PointCoord - 0.5; if (dot(c, c) > 0.25) discard;
         float key = max(dot(normalize(vN), normalize(vec3(-0.6, 0.7, 0.9))), 0.0);
         float fill = max(dot(normalize(vN), normalize(vec3(0.8, -0.2, 0.5))), 0.0);
-        gl_FragColor = vec4(colour * min(1.0, 0.35 + 0.6 * key + 0.2 * fill), 1.0);
+        gl_FragColor = vec4(colour * min(1.0, 0.45 + 0.5 * key + 0.35 * fill), 1.0);
       }`,
   });
 }
