@@ -432,4 +432,55 @@ TEST_F(View, PageDrawsObjectFingertipsAndArrowWhereTheSimulationSays) {
                    << head.transpose();
 }
 
+// A browser killed mid-session (its long poll cut off) leaves the session running: a second
+// browser sees newer frames, and the replay ends normally with the state of a replay without view.
+TEST_F(View, ReconnectedBrowserSeesTheSessionGoOn) {
+  const std::filesystem::path out = std::filesystem::temp_directory_path() / ("graspsim_view_" + std::to_string(getpid()));
+  Graspsim replay;
+  ASSERT_TRUE(replay.Start({"replay", kLog, "--realtime", "--quiet", "--duration", "30", "--view", "127.0.0.1:0", "--out",
+                            out.string()}))
+      << replay.text;
+  long first = 0;
+  {
+    Chromium a;
+    ASSERT_TRUE(a.Start());
+    const std::string d = a.WaitForFrame(replay.port, "true");
+    ASSERT_EQ(d.front(), '{') << d;
+    first = FieldNumber(d, "frame");
+    a.Kill();
+  }
+  Chromium b;
+  ASSERT_TRUE(b.Start());
+  const std::string d = b.WaitForFrame(replay.port, "s.frame > " + std::to_string(first + 3));
+  ASSERT_EQ(d.front(), '{') << d;
+  EXPECT_GT(FieldNumber(d, "frame"), first + 3);
+  Image img;
+  img.rgb = b.Screenshot(&img.w, &img.h);
+  ASSERT_EQ(img.w, kWidth);
+  EXPECT_GT(img.Fraction(kWidth / 2.0, kHeight / 2.0, 200, Orange), 0.02) << "no box on the second page";
+  kill(replay.pid, SIGINT);
+  EXPECT_EQ(replay.Wait(), 130) << replay.text;
+  // the replay's state is what it is without a view, up to the step it was stopped at
+  std::ifstream summary(out / "summary.json");
+  std::stringstream text;
+  text << summary.rdbuf();
+  const long steps = FieldNumber(text.str(), "steps");
+  ASSERT_GT(steps, 0) << text.str();
+  // the same number of steps replayed without a view: the same final state, bit for bit
+  char duration[32];
+  std::snprintf(duration, sizeof duration, "%.3f", 1e-3 * static_cast<double>(steps));
+  const std::string cmd = std::string(GRASPSIM_BINARY) + " replay " + kLog + " --json --duration " + duration;
+  FILE* f = popen(cmd.c_str(), "r");
+  ASSERT_NE(f, nullptr);
+  std::string plain;
+  char buf[4096];
+  while (std::fgets(buf, sizeof buf, f)) plain += buf;
+  pclose(f);
+  EXPECT_EQ(FieldNumber(plain, "steps"), steps) << plain;
+  EXPECT_FALSE(Chromium::Field(text.str(), "state_hash").empty());
+  EXPECT_EQ(Chromium::Field(plain, "state_hash"), Chromium::Field(text.str(), "state_hash"));
+  std::error_code ec;
+  std::filesystem::remove_all(out, ec);
+}
+
 }  // namespace
