@@ -12,6 +12,7 @@
 #include "session/tracker_app.h"
 #include "tracking/lcm_receiver.h"
 #include "tracking/session_log.h"
+#include "view/live_view.h"
 
 namespace gs::app {
 namespace {
@@ -27,6 +28,7 @@ struct LiveCmd {
   std::string tracker = "udp";  ///< udp, or lcm[:CHANNEL]
   bool quiet = false;
   RenderOptions render;  ///< --frames, --video, ... (docs/render.md)
+  std::string view;      ///< --view [ADDR:]PORT: the live view (view/live_view.h)
   int rt_priority = 50;  ///< SCHED_FIFO priority of the simulation thread (0: normal)
   int cpu = 0;           ///< the simulation thread's core (-1: anywhere)
   bool cpu_given = false;  ///< --cpu on the command line: that core, even when another loop has it
@@ -83,6 +85,12 @@ int Live(const LiveCmd& c) {
   FrameRecorder recorder;
   RenderOptions ro = c.render;
   ro.avoid_cpu = o.pacing.cpu;  // rendering on the other core(s)
+  view::LiveView live_view;  // reads the recorder's snapshots on the render thread
+  if (!c.view.empty() && !live_view.Start(c.view, sim->scene(), &error, o.pacing.cpu)) {
+    std::fprintf(stderr, "live: %s\n", error.c_str());
+    return kExitUsage;
+  }
+  if (!c.view.empty()) ro.reader = &live_view;
   if (!recorder.Start(ro, sim->scene(), &error, ERecordMode::Live)) {
     std::fprintf(stderr, "live: %s\n", error.c_str());
     return kExitUsage;
@@ -100,6 +108,7 @@ int Live(const LiveCmd& c) {
     }
     st.frames_drawn = recorder.frames_drawn();
   }
+  if (!c.view.empty()) live_view.Stop();
   std::printf("live: %.2f s wall, %lld steps (%.1f Hz for %.0f Hz asked), %lld overruns (%.2f%%), %lld skipped; step "
               "median %.3f ms, p99 %.3f ms, max %.3f ms\n",
               st.wall_s, static_cast<long long>(st.steps), st.sim_rate_hz(), 1.0 / w.params.dt,
@@ -235,6 +244,9 @@ void AddLiveCommand(CLI::App& app, int* exit_code) {
                          ->check(IntInRange(-1, 1023, "a core number"))
                          ->capture_default_str();
   AddRenderOptions(cmd, &c->render);
+  cmd->add_option("--view", c->view, "serve the live view (a page drawing the grasp in a browser) on this port, "
+                  "on every interface unless an address is given (docs/render.md)")
+      ->type_name("[ADDR:]PORT");
   SetHelpFooter(cmd,
                 {{"graspsim live config/tracked_hand.yaml --duration 10",
                   "ten seconds at 1 kHz on UDP port 5000; once it prints 'live: listening on UDP port 5000', run "
@@ -243,7 +255,8 @@ void AddLiveCommand(CLI::App& app, int* exit_code) {
                   "until Ctrl-C, with a video and the LCM messages written to a log file"},
                  {"graspsim live --tracker lcm --duration 5",
                   "DTrack datagrams from LCM channel DTRACK_RAW: once it prints 'live: listening on LCM channel', run "
-                  "lcm-logplayer assets/demo_session.lcmlog (or graspsim bridge on the tracker's host)"}},
+                  "lcm-logplayer assets/demo_session.lcmlog (or graspsim bridge on the tracker's host)"},
+                 {"graspsim live --view 8080", "with the live view at http://THIS-HOST:8080/ in any browser"}},
                 {{kExitOk, "the session ended (--duration or Ctrl-C) and its summary is printed"},
                  {kExitFailure, "the video could not be finished"},
                  {kExitUsage, "bad command line, or a render option that cannot be met"},

@@ -20,6 +20,7 @@
 #include "session/run_report.h"
 #include "session/tracker_app.h"
 #include "tracking/session_log.h"
+#include "view/live_view.h"
 
 namespace gs::app {
 namespace {
@@ -33,6 +34,7 @@ struct ReplayOptions {
   bool quiet = false;
   bool json = false;  ///< stdout: summary.json's object as one line, nothing else
   RenderOptions render;  ///< --frames, --video, ... (docs/render.md): frames at fixed simulated times
+  std::string view;      ///< --view [ADDR:]PORT: the live view (view/live_view.h)
 };
 
 void Row(std::ostream& o, double v) {
@@ -160,7 +162,15 @@ int Replay(const ReplayOptions& opt) {
   // frames depend on the simulated state only (no wall times in the HUD): two
   // replays of a log render identical frames
   FrameRecorder recorder;
-  if (!recorder.Start(opt.render, sim->scene(), &error, ERecordMode::Headless, false)) {
+  RenderOptions ro = opt.render;
+  view::LiveView live_view;  // reads the recorder's snapshots on the render thread
+  if (!opt.view.empty() && !live_view.Start(opt.view, sim->scene(), &error)) {
+    std::fprintf(stderr, "replay: %s\n", error.c_str());
+    return kExitUsage;
+  }
+  if (!opt.view.empty()) ro.reader = &live_view;
+  // the view alone shows the step's wall time; written frames leave it out
+  if (!recorder.Start(ro, sim->scene(), &error, ERecordMode::Headless, !opt.render.draws())) {
     std::fprintf(stderr, "replay: %s\n", error.c_str());
     return kExitUsage;
   }
@@ -235,6 +245,7 @@ int Replay(const ReplayOptions& opt) {
   const double wall = std::chrono::duration<double>(Clock::now() - t0).count();
   // a video is finalised up to its last frame, also when stopped; the --out files are written either way
   const bool frames_ok = recorder.Finish(&error, opt.json);
+  if (!opt.view.empty()) live_view.Stop(opt.json);
   if (!frames_ok) std::fprintf(stderr, "replay: %s\n", error.c_str());
   if (!reader.error().empty()) {
     std::fprintf(stderr, "replay: %s\n", reader.error().c_str());
@@ -315,11 +326,16 @@ void AddReplayCommand(CLI::App& app, int* exit_code) {
   cmd->add_flag("--quiet", opt->quiet, "no progress bar or progress lines");
   cmd->add_flag("--json", opt->json, "print only the replay's summary as one JSON object (the summary.json of --out)");
   AddRenderOptions(cmd, &opt->render);
+  cmd->add_option("--view", opt->view, "serve the live view (a page drawing the grasp in a browser) on this port, "
+                  "on every interface unless an address is given; with --realtime (docs/render.md)")
+      ->type_name("[ADDR:]PORT");
   SetHelpFooter(cmd,
                 {{"graspsim replay assets/demo_session.lcmlog --out out/",
                   "the demo session in config/tracked_hand.yaml; the same files on every run"},
                  {"graspsim replay config/tracked_hand.yaml assets/demo_session.lcmlog --video replay.mp4",
-                  "the same with an H.264 video"}},
+                  "the same with an H.264 video"},
+                 {"graspsim replay assets/demo_session.lcmlog --realtime --view 8080",
+                  "at the recorded pace, with the live view at http://THIS-HOST:8080/"}},
                 {{kExitOk, "the session was replayed to its end"},
                  {kExitFailure, "an output file or the video could not be written"},
                  {kExitUsage, "bad command line, or a render option that cannot be met (odd --size for --video, no "

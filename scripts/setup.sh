@@ -12,7 +12,11 @@ packages=(
   libfclib-dev libhdf5-dev
   clang libclang-rt-14-dev
   ffmpeg gnuplot-nox
+  libcpp-httplib-dev chromium
 )
+# the live view's page takes three.js from npm at build time (view/CMakeLists.txt); Debian's
+# npm only where no npm is on PATH (a Node.js from elsewhere brings its own)
+if ! command -v npm >/dev/null 2>&1; then packages+=(npm); fi
 # optional extras: the Siconos side-by-side benchmark and the mesh import test models
 if [ "${GRASPSIM_SETUP_MINIMAL:-0}" != 1 ]; then
   packages+=(libsiconos-numerics-dev)

@@ -51,7 +51,7 @@ bool CheckOutputFolder(const std::string& option, const std::string& dir, std::s
 }
 
 bool CheckRenderOptions(const RenderOptions& opt, std::string* error) {
-  if (!opt.enabled()) return true;
+  if (!opt.draws()) return true;
   int width = 0, height = 0;
   if (!ParseSize(opt.size, &width, &height, error)) return false;
   if (!opt.video.empty()) {
@@ -252,7 +252,8 @@ void FrameRecorder::Loop() {
   }
   render::Renderer renderer;
   std::string err;
-  bool ok = renderer.Init(width_, height_, &err);
+  const bool draw = opt_.draws();  // a reader alone needs no GL context
+  bool ok = !draw || renderer.Init(width_, height_, &err);
   render::PngSequence png;
   render::FfmpegVideo video;
   if (ok && !opt_.frames.empty()) ok = png.Open(opt_.frames, &err);
@@ -266,7 +267,9 @@ void FrameRecorder::Loop() {
       s = std::move(queue_.front());
       queue_.erase(queue_.begin());
     }
-    if (ok) {
+    if (opt_.reader) opt_.reader->Read(*s);
+    if (ok && !draw) drawn_.fetch_add(1, std::memory_order_relaxed);
+    if (ok && draw) {
       const auto t0 = Clock::now();
       const render::Image& img = renderer.Draw(*rig_, *s, camera_, style_);
       const auto t1 = Clock::now();
@@ -301,7 +304,7 @@ bool FrameRecorder::Finish(std::string* error, bool quiet) {
     *error = error_;
     return false;
   }
-  if (quiet) return true;
+  if (quiet || !opt_.draws()) return true;
   const int drawn = frames_drawn();
   std::printf("rendered %d frames at %dx%d, %d fps (%.1f ms drawing, %.1f ms writing per frame; at most %zu queued",
               drawn, width_, height_, opt_.fps, drawn ? draw_ms_total_ / drawn : 0.0,

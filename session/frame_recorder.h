@@ -21,6 +21,15 @@
 
 namespace gs::app {
 
+/// Reads the recorder's snapshots on the render thread besides (or instead of)
+/// drawing them: the live view (view/live_view.h). Read gets each snapshot taken,
+/// before it is drawn; it must not wait on anything slow (a network client).
+class SnapshotReader {
+ public:
+  virtual ~SnapshotReader() = default;
+  virtual void Read(const WorldSnapshot& s) = 0;
+};
+
 struct RenderOptions {
   std::string frames;          ///< folder for frame_NNNNNN.png
   std::string video;           ///< MP4 file (ffmpeg)
@@ -31,7 +40,9 @@ struct RenderOptions {
   bool no_hud = false;
   bool discard = false;        ///< draw every frame, write nothing (bench realtime's null sink)
   int avoid_cpu = -1;          ///< live: keep the render thread (and llvmpipe's) off this core, the simulation's
-  bool enabled() const { return !frames.empty() || !video.empty() || discard; }
+  SnapshotReader* reader = nullptr;  ///< --view: also hands every snapshot to this (not owned)
+  bool draws() const { return !frames.empty() || !video.empty() || discard; }
+  bool enabled() const { return draws() || reader; }
 };
 
 /// Everything about the outputs that can be checked before any work: the size
@@ -90,7 +101,7 @@ class FrameRecorder {
   bool Finish(std::string* error, bool quiet = false);
   bool active() const { return active_; }
   int frames_taken() const { return taken_; }
-  /// Frames drawn and written so far (any thread).
+  /// Frames drawn and written (or, with a reader only, read) so far (any thread).
   int frames_drawn() const { return drawn_.load(std::memory_order_relaxed); }
   /// Live: frame times skipped because the renderer was behind (any thread).
   int frames_dropped() const { return dropped_.load(std::memory_order_relaxed); }
