@@ -58,7 +58,7 @@ int main(int argc, char** argv) {
     return rc == 0 ? 0 : gs::app::kExitUsage;
   }
   // a command with a set amount of work that was stopped says so in its exit code;
-  // live and record run until they are stopped, and that is their normal end
+  // live, record and bridge run until they are stopped, and that is their normal end
   const bool runs_until_stopped = app.got_subcommand("live") || app.got_subcommand("record") ||
                                   app.got_subcommand("bridge");
   if (gs::app::StopRequested() && !runs_until_stopped && exit_code != gs::app::kExitUsage &&
