@@ -122,6 +122,10 @@ void AddBenchCommand(CLI::App& app, int* exit_code) {
       ->type_name("CORE")
       ->check(IntInRange(-1, 1023, "a core number"))
       ->each([opt](const std::string&) { opt->cpu_given = true; });
+  realtime->add_option("--view", opt->view,
+                       "serve the live view during the run with rendering (as live --view), to measure the loop with "
+                       "a browser connected; view_requests in the JSON says how many requests it served")
+      ->type_name("[ADDR:]PORT");
   realtime->add_option("--steps-csv", opt->steps_csv,
                        "write one line per step of both runs (rendering or not, loop time, lateness, stage times, contacts, "
                        "sweeps, cache rebuilds) to this CSV file, to see what made a step late")

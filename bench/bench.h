@@ -23,6 +23,7 @@ struct BenchOptions {
   bool skip_late_solves = false;  ///< bench realtime: WorldParams::budget_may_skip_solve
   int lead_steps = 1;  ///< bench realtime: a step may begin this many timesteps before its slot (StepSchedule)
   double step_budget = 0.8;  ///< bench realtime: a step ends this fraction of the timestep into its slot, the solver stopping early (0: no limit)
+  std::string view;          ///< bench realtime: serve the live view during the rendering run on [ADDR:]PORT
   std::string steps_csv;     ///< bench realtime: write every step's stage times of the rendering run here when set
 };
 

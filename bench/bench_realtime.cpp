@@ -47,6 +47,7 @@
 #include "tracking/synthetic_hand.h"
 #include "scene/exit_code.h"
 #include "session/console.h"
+#include "view/live_view.h"
 
 namespace gs::app {
 namespace {
@@ -131,6 +132,7 @@ struct StepTrace {
 
 struct RunResult {
   bool render = false;
+  int64_t view_requests = -1;   ///< --view: requests the live view served during the run (-1: no view)
   double dt = 0.0;
   int64_t steps = 0;
   int64_t missed = 0;           ///< steps that ended after their deadline
@@ -163,7 +165,8 @@ struct RunResult {
 };
 
 bool RunOnce(const std::string& scene, const Session& session, double seconds, bool render, const PacingOptions& po,
-             int lead, double step_budget, bool skip_late_solves, bool trace, RunResult* out, std::string* error) {
+             int lead, double step_budget, bool skip_late_solves, bool trace, const std::string& view_address,
+             RunResult* out, std::string* error) {
   auto sim = std::make_unique<TrackedSim>();
   if (!sim->Load(scene, error)) return false;
   World& w = sim->world();
@@ -173,6 +176,11 @@ bool RunOnce(const std::string& scene, const Session& session, double seconds, b
   RenderOptions ro;
   ro.discard = render;  // draw every frame time, write nothing
   ro.avoid_cpu = po.cpu;
+  // --view: the live view reads the rendering run's snapshots, as in live
+  view::LiveView live_view;
+  const bool view = render && !view_address.empty();
+  if (view && !live_view.Start(view_address, sim->scene(), error, po.cpu)) return false;
+  if (view) ro.reader = &live_view;
   FrameRecorder recorder;
   if (!recorder.Start(ro, sim->scene(), error, ERecordMode::Live)) return false;
   const int tracked = sim->scene().tracked_body;
@@ -291,6 +299,10 @@ bool RunOnce(const std::string& scene, const Session& session, double seconds, b
   if (!recorder.Finish(error, true)) return false;
   out->frames_drawn = recorder.frames_drawn();
   out->frames_dropped = recorder.frames_dropped();
+  if (view) {
+    out->view_requests = live_view.requests();
+    live_view.Stop(true);
+  }
   out->step_median_ms = Percentile(step_ms, 0.5);
   out->step_p99_ms = Percentile(step_ms, 0.99);
   out->step_max_ms = step_ms.empty() ? 0.0 : *std::max_element(step_ms.begin(), step_ms.end());
@@ -417,9 +429,9 @@ int RunBenchRealtime(const BenchOptions& opt) {
                  std::strerror(errno));
     return 3;
   }
-  if (!RunOnce(scene, session, seconds, true, po, opt.lead_steps, opt.step_budget, opt.skip_late_solves, trace, &with,
-               &error) ||
-      !RunOnce(scene, session, seconds, false, po, opt.lead_steps, opt.step_budget, opt.skip_late_solves, trace,
+  if (!RunOnce(scene, session, seconds, true, po, opt.lead_steps, opt.step_budget, opt.skip_late_solves, trace,
+               opt.view, &with, &error) ||
+      !RunOnce(scene, session, seconds, false, po, opt.lead_steps, opt.step_budget, opt.skip_late_solves, trace, "",
                &without, &error) ||
       (trace && !WriteTrace(std::exchange(trace_file, nullptr), opt.steps_csv, with, without, &error))) {
     if (trace_file) {  // a run failed: the trace is not written
@@ -450,7 +462,7 @@ int RunBenchRealtime(const BenchOptions& opt) {
                 "\"frames_dropped\":%d,\"no_render_missed_deadlines\":%lld,\"no_render_worst_lateness_ms\":%.4f,"
                 "\"no_render_step_ms_median\":%.4f,\"empty_loop_missed_deadlines\":%lld,\"empty_loop_late_runs\":%lld,"
                 "\"unconverged_steps\":%lld,\"budget_stops\":%lld,\"skipped_solves\":%lld,\"step_budget\":%g,"
-                "\"lead_steps\":%d,\"pacing\":\"%s\",\"target_met\":%s}\n",
+                "\"lead_steps\":%d,\"view_requests\":%lld,\"pacing\":\"%s\",\"target_met\":%s}\n",
                 seconds, static_cast<long long>(with.steps), static_cast<long long>(with.missed),
                 static_cast<long long>(with.late_runs), static_cast<long long>(with.overlong),
                 static_cast<long long>(with.missed_own), static_cast<long long>(with.missed_woke_late),
@@ -460,7 +472,7 @@ int RunBenchRealtime(const BenchOptions& opt) {
                 static_cast<long long>(empty.missed), static_cast<long long>(empty.late_runs),
                 static_cast<long long>(with.unconverged), static_cast<long long>(with.budget_stops),
                 static_cast<long long>(with.skipped_solves), opt.step_budget, opt.lead_steps,
-                with.pacing.c_str(), with.missed == 0 && with.step_median_ms <= 1.0 ? "true" : "false");
+                static_cast<long long>(with.view_requests), with.pacing.c_str(), with.missed == 0 && with.step_median_ms <= 1.0 ? "true" : "false");
     return 0;
   }
   std::printf("  %-18s %8s %8s %6s %8s %10s %9s %9s %9s %9s %9s %9s %8s %8s %8s\n", "", "steps", "missed", "runs", "overlong", "worst late", "step med",

@@ -241,6 +241,9 @@ bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::str
   std::atomic<int64_t> steps{0}, overruns{0}, skipped{0}, applied{0};
   std::atomic<int64_t> sim_end_ns{0};  // when the simulation thread left its loop
   std::atomic<double> last_step_ms{0.0};
+  // the tracker's health for the frames' HUD (and the live view): set by the status loop, read by the simulation thread
+  std::atomic<const char*> hud_tracker_state{"waiting"};
+  std::atomic<double> hud_good_hz{0.0};
   w.params.budget_may_skip_solve = opt.skip_late_solves;
   double residual_max = 0.0;  // simulation thread; read after it is joined
   const int tracked = sim.scene().tracked_body;
@@ -307,7 +310,14 @@ bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::str
         snapshots.Write(snap);
       }
       if (frames) {
-        if (frames->FrameDue(w)) sim.HudText(tracker_text, sizeof tracker_text);
+        if (frames->FrameDue(w)) {
+          // "tracker ok 100 Hz, 3/3 tracking": no allocation, a fixed buffer
+          const int n = std::snprintf(tracker_text, sizeof tracker_text, "tracker %s %.0f Hz, ",
+                                      hud_tracker_state.load(std::memory_order_relaxed),
+                                      hud_good_hz.load(std::memory_order_relaxed));
+          if (n > 0 && static_cast<size_t>(n) < sizeof tracker_text)
+            sim.HudText(tracker_text + n, sizeof tracker_text - static_cast<size_t>(n));
+        }
         frames->AfterStep(w, tracker_text);
       }
       steps.fetch_add(1, std::memory_order_relaxed);
@@ -367,6 +377,8 @@ bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::str
     hc.rejected = rx.stats().rejected_sender.load();
     hc.last_rejected_addr = rx.stats().last_rejected_addr.load();
     const int ne = health.Update(hc, events);
+    hud_tracker_state.store(health.state(), std::memory_order_relaxed);
+    hud_good_hz.store(health.window_good_hz(), std::memory_order_relaxed);
     for (int i = 0; i < ne; ++i) {
       if (opt.quiet) continue;
       std::printf("%slive: t=%.2f s: %s\n", status_pending ? "\n" : "", events[i].t_s, events[i].text);
