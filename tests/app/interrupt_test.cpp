@@ -25,6 +25,8 @@
 
 extern char** environ;
 
+#include "shell.h"
+
 namespace {
 
 std::string ReadFile(const std::string& path) {
@@ -205,22 +207,8 @@ TEST(Interrupt, ReplayWithAVideoWritesItsOutputsAndExits130) {
 
 // ---- outputs checked before any work ----
 
-struct Result {
-  int code = -1;
-  std::string output;
-};
-
-Result Sh(const std::string& cmd) {
-  Result r;
-  FILE* p = popen((cmd + " 2>&1").c_str(), "r");
-  if (!p) return r;
-  char buf[4096];
-  size_t n;
-  while ((n = fread(buf, 1, sizeof buf, p)) > 0) r.output.append(buf, n);
-  const int status = pclose(p);
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-  return r;
-}
+using Result = gs::test::ShellResult;
+using gs::test::Sh;
 
 TEST(CheckBeforeWork, RunRefusesBadOutputsBeforeBuildingTheScene) {
   const std::string dir = TempDir("check");

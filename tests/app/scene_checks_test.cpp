@@ -16,24 +16,12 @@
 #include <string>
 #include <vector>
 
+#include "shell.h"
+
 namespace {
 
-struct Result {
-  int code = -1;       ///< exit status, or 128 + signal
-  std::string output;  ///< stdout and stderr
-};
-
-Result Sh(const std::string& cmd) {
-  Result r;
-  FILE* p = popen((cmd + " 2>&1").c_str(), "r");
-  if (!p) return r;
-  char buf[4096];
-  size_t n;
-  while ((n = fread(buf, 1, sizeof buf, p)) > 0) r.output.append(buf, n);
-  const int status = pclose(p);
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-  return r;
-}
+using Result = gs::test::ShellResult;
+using gs::test::Sh;
 
 std::string Bin() { return GRASPSIM_BINARY; }
 std::string Scene(const std::string& name) { return std::string(GRASPSIM_TEST_DATA) + "/scenes/" + name; }
