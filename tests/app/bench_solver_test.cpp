@@ -74,6 +74,7 @@ const QuickRun& Quick() {
 // skipped under sanitizers only: a timed benchmark run means nothing there, and
 // LeakSanitizer does not follow Siconos' own allocations; the release suite runs it
 #ifdef GRASPSIM_SANITIZED
+// a benchmark run takes minutes under the sanitizers: the release suite runs these tests
 #define SKIP_UNDER_SANITIZERS() GTEST_SKIP() << "a benchmark run; the release suite runs it"
 #else
 #define SKIP_UNDER_SANITIZERS() (void)0

@@ -283,6 +283,7 @@ TEST(HelpText, RunExampleRuns) {
   ASSERT_FALSE(examples.empty());
   const std::string& e = examples.front();
   const bool video = e.find("--video") != std::string::npos;
+  // skipped without ffmpeg: this example writes a video (scripts/setup.sh installs ffmpeg; CI has it)
   if (video && Sh("command -v ffmpeg").code != 0) GTEST_SKIP() << "no ffmpeg: " << e;
   const std::string dir = ExampleRoot("run");
   const std::string cmd = "cd " + dir + " && " + Bin() + e.substr(std::string("graspsim").size()) +

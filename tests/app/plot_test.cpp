@@ -184,6 +184,7 @@ TEST(PlotCli, RunFolderGivesEveryFigureAtTheAskedSize) {
 }
 
 TEST(PlotCli, DefaultOutIsPlotsInsideTheFolderAndQuietListsNothing) {
+  // skipped without gnuplot, which draws the figures (setup.sh installs gnuplot-nox; CI has it)
   if (!HaveGnuplot()) GTEST_SKIP() << "gnuplot is not installed (scripts/setup.sh installs gnuplot-nox)";
   const std::string dir = CopyOfRun("default_out");
   const Result r = Sh(Bin() + " plot " + dir + " --quiet");
@@ -193,6 +194,7 @@ TEST(PlotCli, DefaultOutIsPlotsInsideTheFolderAndQuietListsNothing) {
 }
 
 TEST(PlotCli, ReplayFolderGivesItsFiguresAndNamesTheOthers) {
+  // skipped without gnuplot, which draws the figures (setup.sh installs gnuplot-nox; CI has it)
   if (!HaveGnuplot()) GTEST_SKIP() << "gnuplot is not installed (scripts/setup.sh installs gnuplot-nox)";
   const std::string out = Root() + "/replay_plots";
   const Result r = Sh(Bin() + " plot " + ReplayFolder() + " --out " + out);
@@ -271,6 +273,7 @@ TEST(PlotCli, AMalformedSummaryIsRefusedWithItsFile) {
 }
 
 TEST(PlotCli, BadOptionsAreRefusedWithTheOptionNamed) {
+  // skipped without gnuplot: plot checks --out only after finding gnuplot
   if (!HaveGnuplot()) GTEST_SKIP() << "gnuplot is not installed: --out is checked after it is found";
   const std::string file = RunFolder() + "/summary.json";
   Result r = Sh(Bin() + " plot " + RunFolder() + " --out " + file + "/plots");
@@ -287,11 +290,13 @@ TEST(PlotCli, BadOptionsAreRefusedWithTheOptionNamed) {
 }
 
 TEST(PlotCli, AnUnwritableOutLeavesNothingBehind) {
+  // skipped without gnuplot: plot checks --out only after finding gnuplot
   if (!HaveGnuplot()) GTEST_SKIP() << "gnuplot is not installed: --out is checked after it is found";
   // /proc takes no new folder, not even from root
   Result r = Sh(Bin() + " plot " + RunFolder() + " --out /proc/graspsim-no/such");
   EXPECT_EQ(r.code, 2) << r.output;
   EXPECT_NE(r.output.find("--out /proc/graspsim-no/such: cannot create the folder"), std::string::npos) << r.output;
+  // skipped as root, who can write into a read-only folder; the /proc case above covers root
   if (geteuid() == 0) GTEST_SKIP() << "root writes into a read-only folder: the /proc case was checked";
   const std::string locked = Root() + "/locked";
   fs::create_directories(locked);

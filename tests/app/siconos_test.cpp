@@ -22,11 +22,13 @@ bool InCi() {
 
 // A build without Siconos (GRASPSIM_SETUP_MINIMAL=1) skips these tests and says so;
 // under CI=true, where scripts/setup.sh installs it, a missing Siconos fails them.
+// skipped where graspsim is built without Siconos (an optional comparison); under CI=true it fails instead
 #define REQUIRE_SICONOS()                                                                       \
   do {                                                                                          \
     if (!SiconosAvailable()) {                                                                  \
       if (InCi()) FAIL() << "Siconos Numerics is not built in (CI=true: libsiconos-numerics-dev " \
                             "must be installed, scripts/setup.sh)";                             \
+      /* an optional comparison: skipped outside CI */                                         \
       GTEST_SKIP() << "built without Siconos Numerics (libsiconos-numerics-dev)";               \
     }                                                                                           \
   } while (0)

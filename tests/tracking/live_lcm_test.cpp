@@ -50,6 +50,7 @@ const std::string& Scene() {
 
 TEST(Live, LcmLogplayerSessionGivesTheGraspReplayGives) {
   const std::string url = PrivateLcmUrl();
+  // skipped where the machine has no multicast route (LCM's transport); the message says how to add one
   if (url.empty()) GTEST_SKIP() << "LCM multicast is unavailable here ('ip route add 239.0.0.0/8 dev lo' fixes it)";
   const std::string log = std::string(GRASPSIM_TEST_DATA) + "/../../assets/demo_session.lcmlog";
   const test::Result replay = test::Run(test::Binary() + " replay " + Scene() + " " + log);
@@ -93,6 +94,7 @@ TEST(Live, LcmLogplayerSessionGivesTheGraspReplayGives) {
 
 TEST(Live, LcmBridgeCarriesSendToLive) {
   const std::string url = PrivateLcmUrl();
+  // skipped where the machine has no multicast route (LCM's transport); the message says how to add one
   if (url.empty()) GTEST_SKIP() << "LCM multicast is unavailable here ('ip route add 239.0.0.0/8 dev lo' fixes it)";
   const int port = test::FreeUdpPort();
   test::Background live(test::Binary() + " live " + Scene() + " --tracker lcm:HAND_A --lcm-url '" + url +
@@ -120,6 +122,7 @@ TEST(Live, LcmBridgeCarriesSendToLive) {
 
 TEST(Live, LcmCtrlCEndsASessionWaitingOnLcm) {
   const std::string url = PrivateLcmUrl();
+  // skipped where the machine has no multicast route (LCM's transport); the message says how to add one
   if (url.empty()) GTEST_SKIP() << "LCM multicast is unavailable here ('ip route add 239.0.0.0/8 dev lo' fixes it)";
   const std::string dir = test::TempDir("live_lcm_stop");
   test::Child live({test::Binary(), "live", Scene(), "--tracker", "lcm", "--lcm-url", url, "--publish-rate", "0"},

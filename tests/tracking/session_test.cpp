@@ -88,6 +88,7 @@ TEST(SessionLog, LcmLogplayerAndLcmLoggerInteroperate) {
   lcm::LCM probe(url);
   // skipped only on hosts without a multicast route: LCM's udpm transport cannot work there
   if (!probe.good())
+    // skipped where the machine has no multicast route (LCM's transport); the message says how to add one
     GTEST_SKIP() << "LCM multicast is unavailable here (no multicast route; 'ip route add 239.0.0.0/8 dev lo' fixes it)";
   const std::string dir = test::TempDir("session_interop");
   const std::string ours = WriteLog(dir + "/ours.lcmlog");

@@ -337,6 +337,7 @@ class View : public ::testing::Test {
  protected:
   void SetUp() override {
     if (FindChromium().empty())
+      // skipped without chromium, the browser the test drives (setup.sh installs it; CI has it)
       GTEST_SKIP() << "chromium is not installed (apt-get install chromium, as scripts/setup.sh does): the live view's "
                       "browser tests are skipped";
   }
