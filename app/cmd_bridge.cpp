@@ -101,10 +101,7 @@ void AddBridgeCommand(CLI::App& app, int* exit_code) {
   auto opt = std::make_shared<BridgeOptions>();
   CLI::App* cmd =
       app.add_subcommand("bridge", "Forward DTrack UDP datagrams to an LCM channel, for live on any number of hosts");
-  cmd->add_option("--port", opt->udp.port, "UDP port the tracker sends to (0: any free port, printed)")
-      ->type_name("PORT")
-      ->required()
-      ->check(IntInRange(0, 65535, "a UDP port"));
+  AddUdpReceiveOptions(cmd, &opt->udp);
   cmd->add_option("--channel", opt->channel,
                   "LCM channel of the graspsim.dtrack_datagram_t messages (live --tracker lcm:CHANNEL)")
       ->type_name("CHANNEL")
@@ -114,13 +111,6 @@ void AddBridgeCommand(CLI::App& app, int* exit_code) {
   cmd->add_option("--duration", opt->duration, "stop after this many seconds (default: at Ctrl-C)")
       ->type_name("SECONDS")
       ->check(Positive("number of seconds"));
-  cmd->add_option("--multicast", opt->udp.multicast_group, "join this multicast group (e.g. 224.0.1.0)")
-      ->type_name("GROUP");
-  cmd->add_option("--allow", opt->udp.allowed_senders, "accept datagrams only from these IPv4 addresses")
-      ->type_name("ADDRESS");
-  cmd->add_option("--controller", opt->udp.controller,
-                  "send the DTrack firewall nudge to this Controller address (UDP 50107)")
-      ->type_name("ADDRESS");
   cmd->add_flag("--quiet", opt->quiet, "no status line");
   SetHelpFooter(cmd,
                 {{"graspsim bridge --port 5000 --lcm-url 'udpm://239.255.76.67:7667?ttl=1'",

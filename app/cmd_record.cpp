@@ -95,21 +95,11 @@ int Record(const RecordOptions& opt) {
 void AddRecordCommand(CLI::App& app, int* exit_code) {
   auto opt = std::make_shared<RecordOptions>();
   CLI::App* cmd = app.add_subcommand("record", "Record DTrack UDP datagrams, raw with arrival times, to an LCM log");
-  cmd->add_option("--port", opt->udp.port, "UDP port the tracker sends to (0: any free port, printed)")
-      ->type_name("PORT")
-      ->required()
-      ->check(IntInRange(0, 65535, "a UDP port"));
+  AddUdpReceiveOptions(cmd, &opt->udp);
   cmd->add_option("-o,--out", opt->out, "the LCM event log to write")->type_name("FILE.lcmlog")->required();
   cmd->add_option("--duration", opt->duration, "stop after this many seconds (default: at Ctrl-C)")
       ->type_name("SECONDS")
       ->check(Positive("number of seconds"));
-  cmd->add_option("--multicast", opt->udp.multicast_group, "join this multicast group (e.g. 224.0.1.0)")
-      ->type_name("GROUP");
-  cmd->add_option("--allow", opt->udp.allowed_senders, "accept datagrams only from these IPv4 addresses")
-      ->type_name("ADDRESS");
-  cmd->add_option("--controller", opt->udp.controller,
-                  "send the DTrack firewall nudge to this Controller address (UDP 50107)")
-      ->type_name("ADDRESS");
   cmd->add_option("--rcvbuf", opt->udp.socket_buffer_bytes,
                   "socket receive buffer in bytes (default 4 MiB; beyond net.core.rmem_max only as root)")
       ->type_name("BYTES")

@@ -153,7 +153,7 @@ void AddSolveCommand(CLI::App& app, int* exit_code) {
                 {{kExitOk, "solved: the error reached --tolerance"},
                  {kExitFailure, "not solved within the caps (--max-iterations, --max-newton), or --write-solution "
                                 "could not be written"},
-                 {kExitUsage, "bad command line"},
+                 {kExitUsage, "bad command line, or a --write-solution path that is the input or in a folder that cannot be written (checked before the solve)"},
                  {kExitBadInput, "the file is not an FCLIB local problem graspsim can read (or FCLIB is not built "
                                  "in)"},
                  {kExitInterrupted, "interrupted (Ctrl-C, SIGTERM): what was computed up to the stop is written"}});

@@ -6,6 +6,10 @@
 
 #include "scene/exit_code.h"
 
+namespace gs::tracking {
+struct UdpOptions;
+}
+
 namespace gs::app {
 
 struct RenderOptions;
@@ -22,6 +26,9 @@ void AddLiveCommand(CLI::App& app, int* exit_code);
 void AddStressCommand(CLI::App& app, int* exit_code);
 void AddPlotCommand(CLI::App& app, int* exit_code);
 void AddBridgeCommand(CLI::App& app, int* exit_code);
+
+/// --port (required), --multicast, --allow, --controller (record, bridge).
+void AddUdpReceiveOptions(CLI::App* cmd, tracking::UdpOptions* udp);
 
 /// --frames, --video, --size, --fps, --force-scale, --arrows, --no-hud (run, replay, live).
 void AddRenderOptions(CLI::App* cmd, RenderOptions* opt);
