@@ -51,10 +51,15 @@ void AddBenchCommand(CLI::App& app, int* exit_code) {
                 {{kExitOk, "the median latency from arrival to force is at most one step"},
                  {kExitFailure, "the median latency is over one step, or the receiving loop could not run"},
                  usage, interrupted});
-  SetHelpFooter(add("solver", "our NSGS against Siconos NSGS and PROX: time to reach error 1e-6 on the same problems",
-                    RunBenchSolver),
+  CLI::App* solver = add("solver", "our NSGS against Siconos NSGS and PROX: time to reach error 1e-6 on the same problems",
+                         RunBenchSolver);
+  solver->add_option("--only", opt->only, "run only the problems whose name contains one of these words")
+      ->type_name("NAME[,NAME...]")
+      ->delimiter(',');
+  SetHelpFooter(solver,
                 {{"graspsim bench solver --quick", "the FCLIB problems and generated families, without the paper grasp"},
-                 {"graspsim bench solver --json", "every problem as a JSON line, the headline last"}},
+                 {"graspsim bench solver --json", "every problem as a JSON line, the headline last"},
+                 {"graspsim bench solver --only stack_10,gripped", "the problems named stack_10... and gripped..."}},
                 {{kExitOk, "every problem was solved"},
                  {kExitFailure, "a problem was left unsolved"},
                  {kExitUsage, "bad command line; or CI is set in the environment and Siconos or FCLIB is not "

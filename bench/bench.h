@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <string>
+#include <vector>
 
 #include "core/sampling.h"
 
@@ -14,6 +15,7 @@ struct BenchOptions {
   bool quick = false;  ///< fewer repetitions (used by the tests)
   std::string plot_dir;  ///< bench tradeoff: write CSV and PNG plots here when set
   std::string knob;      ///< bench tradeoff: sweep only this knob when set
+  std::vector<std::string> only;  ///< bench solver: only the problems whose name contains one of these
   double seconds = 0.0;  ///< bench realtime: session length (0: 60 s, --quick 2 s)
   std::string scene;     ///< bench realtime: tracked scene (empty: config/tracked_paper_grasp.yaml)
   int rt_priority = 50;  ///< bench realtime: SCHED_FIFO priority of the loop (0: normal scheduling)

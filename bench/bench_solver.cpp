@@ -457,6 +457,20 @@ bool ReportMissingPeers() {
   return missing && InCi();
 }
 
+// --only: keeps the problems whose name contains one of the words; false when none is left
+bool KeepOnly(const std::vector<std::string>& words, std::vector<Problem>* problems) {
+  if (words.empty()) return true;
+  std::vector<Problem> kept;
+  for (Problem& pr : *problems)
+    for (const std::string& w : words)
+      if (pr.name.find(w) != std::string::npos) {
+        kept.push_back(std::move(pr));
+        break;
+      }
+  *problems = std::move(kept);
+  return !problems->empty();
+}
+
 }  // namespace
 
 int RunBenchSolver(const BenchOptions& opt) {
@@ -474,6 +488,10 @@ int RunBenchSolver(const BenchOptions& opt) {
   }
   if (!opt.quick) problems.push_back(std::move(grasp));
   AddFamilies(opt.quick, &problems);
+  if (!KeepOnly(opt.only, &problems)) {
+    std::fprintf(stderr, "graspsim bench solver: --only: no problem's name contains any of the words given\n");
+    return 2;
+  }
 
   if (!opt.json) {
     std::printf("graspsim bench solver: time to reach the Siconos error %.0e from zero forces (median of interleaved "

@@ -197,5 +197,24 @@ TEST(BenchSolver, QuickRunListsEveryFamilyEveryFailureAndTimesInRounds) {
   }
 }
 
+// --only keeps the problems whose name contains one of its words, and refuses words
+// that name none (exit 2, before any solve)
+TEST(BenchSolver, OnlyRunsTheProblemsItNames) {
+  SKIP_UNDER_SANITIZERS();
+  const std::string out = std::string(::testing::TempDir()) + "/bench_solver_only.json";
+  const std::string bin = GRASPSIM_BINARY;
+  const int raw = std::system((bin + " bench solver --quick --json --only cone_mu10,stack_4 > " + out).c_str());
+  ASSERT_TRUE(WIFEXITED(raw));
+  std::set<std::string> names;
+  FILE* f = std::fopen(out.c_str(), "r");
+  char buf[8192];
+  while (f && std::fgets(buf, sizeof buf, f))
+    if (std::strncmp(buf, "{\"problem\":", 11) == 0) names.insert(JsonString(buf, "problem"));
+  if (f) std::fclose(f);
+  EXPECT_EQ(names, (std::set<std::string>{"cone_mu10", "stack_4_ratio1000"}));
+  const int none = std::system((bin + " bench solver --quick --only nosuch > /dev/null 2>&1").c_str());
+  EXPECT_TRUE(WIFEXITED(none) && WEXITSTATUS(none) == 2);
+}
+
 }  // namespace
 }  // namespace gs::app
