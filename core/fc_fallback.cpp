@@ -70,9 +70,7 @@ double NsgsRate(const FcMethodResult& out, const FcMethodParams& params) {
   return std::log(ratio) / (params.stagnation_window * out.nsgs_seconds / out.nsgs.iterations);
 }
 
-void RunNewton(const FcProblem& p, const FcMethodParams& params, double budget, double rival_rate,
-               Eigen::VectorXd* r, FcMethodResult* out) {
-  const auto t0 = std::chrono::steady_clock::now();
+FcNewtonParams NewtonParams(const FcMethodParams& params, double budget, double rival_rate, double from_error) {
   FcNewtonParams np;
   np.tolerance = params.tolerance;
   np.max_iterations = params.max_newton;
@@ -81,9 +79,58 @@ void RunNewton(const FcProblem& p, const FcMethodParams& params, double budget, 
     // Newton's first steps are its slowest (proximal, far from the solution): it is
     // judged after a tenth of the time NSGS would still need at its pace
     np.rival_rate = rival_rate;
-    np.rival_grace_s = 0.1 * std::log(params.tolerance / std::max(out->error, params.tolerance)) / rival_rate;
+    np.rival_grace_s = 0.1 * std::log(params.tolerance / std::max(from_error, params.tolerance)) / rival_rate;
   }
-  out->newton = SolveFcNewton(p, np, r);
+  return np;
+}
+
+void RunNewton(const FcProblem& p, const FcMethodParams& params, double budget, double rival_rate,
+               Eigen::VectorXd* r, FcMethodResult* out) {
+  const auto t0 = std::chrono::steady_clock::now();
+  out->newton = SolveFcNewton(p, NewtonParams(params, budget, rival_rate, out->error), r);
+  out->newton_ran = true;
+  out->newton_seconds = Since(t0);
+  out->error = out->newton.error;
+  out->converged = out->newton.converged;
+  out->stop = out->newton.stop;
+}
+
+// The stop of two runs that ended together: converged if one did; diverged if one
+// did; outpaced only if both were; else the reason of the one not outpaced
+EFcStop CombinedStop(const FcNewtonResult& a, const FcNewtonResult& b) {
+  if (a.converged || b.converged) return EFcStop::Converged;
+  if (a.stop == EFcStop::Diverged || b.stop == EFcStop::Diverged) return EFcStop::Diverged;
+  if (a.stop == EFcStop::TimeCap || b.stop == EFcStop::TimeCap) return EFcStop::TimeCap;
+  return a.stop == EFcStop::Outpaced ? b.stop : a.stop;
+}
+
+// auto's first Newton stage: one run from NSGS's forces *r and one from the forces
+// the solve started from, interleaved (the run that has spent less time steps
+// next) until one converges or both end; *r gets the better run's best forces. A
+// Newton started from NSGS's stalled forces can crawl where one from the start does
+// not (a 10-box stack at mass ratio 100: 200 steps unconverged against 24), and
+// the other way round (a pile of 12 boxes: 13 steps against 54); the pair costs
+// at most twice the better one.
+void RunNewtonPair(const FcProblem& p, const FcMethodParams& params, double budget, double rival_rate,
+                   const Eigen::VectorXd& start, Eigen::VectorXd* r, FcMethodResult* out) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const FcNewtonParams np = NewtonParams(params, budget, rival_rate, out->error);
+  FcNewtonRun warm(p, np, *r), cold(p, np, start);
+  while (!warm.Ended() || !cold.Ended()) {
+    FcNewtonRun& next = cold.Ended() || (!warm.Ended() && warm.Seconds() <= cold.Seconds()) ? warm : cold;
+    next.Step();
+    if (next.Result().converged) break;
+    if (budget > 0.0 && Since(t0) > budget) break;
+  }
+  const FcNewtonRun& better = cold.Result().error < warm.Result().error ? cold : warm;
+  *r = better.Best();
+  out->newton = better.Result();
+  out->newton.iterations = warm.Result().iterations + cold.Result().iterations;
+  out->newton.factorizations = warm.Result().factorizations + cold.Result().factorizations;
+  out->newton.stop = warm.Ended() && cold.Ended() ? CombinedStop(warm.Result(), cold.Result())
+                     : better.Result().converged ? EFcStop::Converged
+                                                 : EFcStop::TimeCap;
+  out->newton.converged = out->newton.stop == EFcStop::Converged;
   out->newton_ran = true;
   out->newton_seconds = Since(t0);
   out->error = out->newton.error;
@@ -131,6 +178,7 @@ FcMethodResult SolveFcMethod(const FcProblem& p, EFcMethod method, const FcMetho
   FcMethodResult out;
   out.method = method;
   if (r->size() != 3 * p.contacts) r->setZero(3 * p.contacts);
+  const Eigen::VectorXd start = *r;
   const auto left = [&] { return params.time_budget_s > 0.0 ? params.time_budget_s - Since(t0) : 0.0; };
   const auto budget_left = [&] { return params.time_budget_s <= 0.0 || Since(t0) < params.time_budget_s; };
   if (method != EFcMethod::Newton)
@@ -140,7 +188,10 @@ FcMethodResult SolveFcMethod(const FcProblem& p, EFcMethod method, const FcMetho
     const double nsgs_error = out.error;
     // auto races Newton against the pace NSGS had when it was stopped
     const double rival = method == EFcMethod::Auto && out.nsgs.stagnated ? NsgsRate(out, params) : 0.0;
-    RunNewton(p, params, left(), rival, r, &out);
+    if (method == EFcMethod::Auto)
+      RunNewtonPair(p, params, left(), rival, start, r, &out);
+    else
+      RunNewton(p, params, left(), rival, r, &out);
     if (method == EFcMethod::Auto && out.newton_ran && !(out.error < nsgs_error)) {
       *r = from_nsgs;  // Newton found nothing better: keep NSGS's forces, and Newton's stop reason
       out.error = nsgs_error;

@@ -205,89 +205,134 @@ double SiconosErrorOf(const FcProblem& p, const Eigen::VectorXd& r, const Eigen:
 }
 
 // The race of FcNewtonParams::rival_rate: true when, past its grace, Newton's
-// error has fallen more slowly per second than the rival's would
-bool Outpaced(const FcNewtonParams& params, int steps, double start_error, double best_error,
-              std::chrono::steady_clock::time_point t0) {
+// error has fallen more slowly per second (of its own steps) than the rival's would
+bool Outpaced(const FcNewtonParams& params, int steps, double start_error, double best_error, double spent) {
   if (!(params.rival_rate < 0.0) || steps < params.rival_after) return false;
-  const double spent = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   if (spent < params.rival_grace_s || !(spent > 0.0) || !(start_error > 0.0)) return false;
   return std::log(best_error / start_error) / spent > params.rival_rate;
 }
 
+// the line search's memory and the watchdog (see fc_newton.h)
+constexpr int kNonmonotone = 10;
+constexpr int kWatchdog = 10;
+
 }  // namespace
 
-FcNewtonResult SolveFcNewton(const FcProblem& p, const FcNewtonParams& params, Eigen::VectorXd* r) {
-  FcNewtonResult res;
-  const auto t0 = std::chrono::steady_clock::now();
+struct FcNewtonRun::State {
+  explicit State(const FcProblem& p) : ac(p) {}
+  AlartCurnier ac;
+  Eigen::VectorXd r, phi, trial_phi, d, trial, centre;
+  std::vector<double> merits;  ///< the last kNonmonotone merits |phi(r)|, oldest first
+  double sigma_min = 0.0, sigma_max = 0.0, force_limit = 0.0;
+};
+
+FcNewtonRun::FcNewtonRun(const FcProblem& p, const FcNewtonParams& params, const Eigen::VectorXd& r0)
+    : p_(p), params_(params), s_(std::make_unique<State>(p)) {
   const int m = 3 * p.contacts;
-  if (r->size() != m) r->setZero(m);
-  AlartCurnier ac(p);
-  res.error = SiconosErrorOf(p, *r, ac.Velocity(*r));
-  Eigen::VectorXd best = *r, phi(m), trial_phi(m), d(m), trial(m), centre = *r;
-  double best_error = res.error;
-  const double start_error = res.error;
-  const double sigma_min = 1e-12 * ac.MeanDiagonal(), sigma_max = 1e8 * ac.MeanDiagonal();
+  State& s = *s_;
+  s.r = r0.size() == m ? r0 : Eigen::VectorXd::Zero(m);
+  s.phi.resize(m);
+  s.trial_phi.resize(m);
+  s.d.resize(m);
+  s.trial.resize(m);
+  s.centre = s.r;
+  const double diag = s.ac.MeanDiagonal();
+  s.sigma_min = 1e-12 * diag;
+  s.sigma_max = 1e8 * diag;
   // forces beyond this are taken as divergence: far above any force that balances q
-  const double force_limit = 1e12 * std::max(1.0, p.q.norm() / ac.MeanDiagonal());
-  double sigma = params.sigma0 * ac.MeanDiagonal();
-  res.stop = EFcStop::IterationCap;
-  while (best_error > params.tolerance) {
-    if (res.factorizations >= params.max_iterations) break;
-    const double spent = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    if (params.time_budget_s > 0.0 && spent > params.time_budget_s) {
-      res.stop = EFcStop::TimeCap;
-      break;
-    }
-    centre = *r;
-    ac.Evaluate(*r, centre, sigma, &phi, true);
-    ++res.factorizations;
-    if (!ac.Factorize()) {
-      sigma = std::min(sigma_max, 10.0 * sigma);
-      continue;
-    }
-    ac.Solve(-phi, &d);
-    const double norm0 = phi.norm();
-    double t = 1.0;
-    bool accepted = false;
-    for (int k = 0; k < 30 && d.allFinite(); ++k, t *= 0.5) {
-      trial = *r + t * d;
-      ac.Evaluate(trial, centre, sigma, &trial_phi, false);
-      if (trial_phi.norm() <= (1.0 - 1e-4 * t) * norm0) {
-        accepted = true;
-        break;
-      }
-    }
-    if (!accepted) {
-      if (sigma >= sigma_max) {
-        res.stop = EFcStop::LineSearchFailed;
-        break;
-      }
-      sigma = std::min(sigma_max, 10.0 * sigma);
-      continue;
-    }
-    ++res.iterations;
-    *r = trial;
-    sigma = t == 1.0 ? std::max(sigma_min, 0.25 * sigma) : std::min(sigma_max, 2.0 * sigma);
-    const double e = SiconosErrorOf(p, *r, ac.Velocity(*r));
-    if (e < best_error) {
-      best_error = e;
-      best = *r;
-    }
-    if (!(r->norm() < force_limit)) {
-      res.stop = EFcStop::Diverged;
-      break;
-    }
-    if (best_error > params.tolerance && Outpaced(params, res.iterations, start_error, best_error, t0)) {
-      res.stop = EFcStop::Outpaced;
-      break;
-    }
+  s.force_limit = 1e12 * std::max(1.0, p.q.norm() / diag);
+  sigma_ = params.sigma0 * diag;
+  best_ = s.r;
+  res_.error = start_error_ = SiconosErrorOf(p, s.r, s.ac.Velocity(s.r));
+  res_.stop = EFcStop::IterationCap;
+  if (res_.error <= params.tolerance) Finish(EFcStop::Converged);
+}
+
+FcNewtonRun::~FcNewtonRun() = default;
+
+bool FcNewtonRun::Finish(EFcStop stop) {
+  ended_ = true;
+  res_.stop = res_.error <= params_.tolerance ? EFcStop::Converged : stop;
+  res_.converged = res_.stop == EFcStop::Converged;
+  res_.sigma = sigma_;
+  return false;
+}
+
+bool FcNewtonRun::Step() {
+  if (ended_) return false;
+  if (res_.factorizations >= params_.max_iterations) return Finish(EFcStop::IterationCap);
+  if (params_.time_budget_s > 0.0 && seconds_ > params_.time_budget_s) return Finish(EFcStop::TimeCap);
+  const auto t0 = std::chrono::steady_clock::now();
+  const bool going = Iterate();
+  seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  if (going && Outpaced(params_, res_.iterations, start_error_, res_.error, seconds_)) return Finish(EFcStop::Outpaced);
+  return going;
+}
+
+// the watchdog: back to the best forces, the line search monotone for a while
+void FcNewtonRun::Restart() {
+  s_->r = best_;
+  s_->merits.clear();
+  since_best_ = 0;
+  monotone_left_ = kNonmonotone;
+}
+
+// the step length: halved from 1 until the proximal merit at r + t d falls below
+// the reference; false when no length of 30 halvings does
+bool FcNewtonRun::LineSearch(double reference, double* t) {
+  State& s = *s_;
+  *t = 1.0;
+  for (int k = 0; k < 30 && s.d.allFinite(); ++k, *t *= 0.5) {
+    s.trial = s.r + *t * s.d;
+    s.ac.Evaluate(s.trial, s.centre, sigma_, &s.trial_phi, false);
+    if (s.trial_phi.norm() <= (1.0 - 1e-4 * *t) * reference) return true;
   }
-  if (best_error <= params.tolerance) res.stop = EFcStop::Converged;
-  *r = best;
-  res.error = best_error;
-  res.converged = res.stop == EFcStop::Converged;
-  res.sigma = sigma;
-  return res;
+  return false;
+}
+
+bool FcNewtonRun::Iterate() {
+  State& s = *s_;
+  if (since_best_ >= kWatchdog) Restart();
+  s.centre = s.r;
+  s.ac.Evaluate(s.r, s.centre, sigma_, &s.phi, true);
+  ++res_.factorizations;
+  if (!s.ac.Factorize()) {
+    sigma_ = std::min(s.sigma_max, 10.0 * sigma_);
+    return true;
+  }
+  s.ac.Solve(-s.phi, &s.d);
+  const double merit = s.phi.norm();
+  if (monotone_left_ > 0) --monotone_left_;
+  if (static_cast<int>(s.merits.size()) == kNonmonotone) s.merits.erase(s.merits.begin());
+  s.merits.push_back(merit);
+  const double reference = monotone_left_ > 0 ? merit : *std::max_element(s.merits.begin(), s.merits.end());
+  double t = 1.0;
+  if (!LineSearch(reference, &t)) {
+    if (sigma_ >= s.sigma_max) return Finish(EFcStop::LineSearchFailed);
+    sigma_ = std::min(s.sigma_max, 10.0 * sigma_);
+    return true;
+  }
+  ++res_.iterations;
+  s.r = s.trial;
+  sigma_ = t == 1.0 ? std::max(s.sigma_min, 0.25 * sigma_) : std::min(s.sigma_max, 2.0 * sigma_);
+  const double e = SiconosErrorOf(p_, s.r, s.ac.Velocity(s.r));
+  ++since_best_;
+  if (e < res_.error) {
+    res_.error = e;
+    best_ = s.r;
+    since_best_ = 0;
+  }
+  if (res_.error <= params_.tolerance) return Finish(EFcStop::Converged);
+  if (!(s.r.norm() < s.force_limit)) return Finish(EFcStop::Diverged);
+  return true;
+}
+
+FcNewtonResult SolveFcNewton(const FcProblem& p, const FcNewtonParams& params, Eigen::VectorXd* r) {
+  FcNewtonRun run(p, params, *r);
+  while (run.Step()) {
+  }
+  *r = run.Best();
+  return run.Result();
 }
 
 }  // namespace gs

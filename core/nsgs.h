@@ -110,6 +110,7 @@ struct NsgsParams {
   /// own changes, projected back on each cone; beta > 1 restarts the direction.
   /// Each sweep's local solves stay exact; what the momentum adds is checked by the
   /// same error measure. Costs two copies of r and one more pass over the contacts.
+  /// Off for the rest of the solve once it stops paying (MomentumWatch below).
   bool conjugate = false;
 };
 
@@ -365,6 +366,30 @@ inline void SetErrors(NsgsResult* res, const NsgsErrors& e) {
   res->siconos_error = e.siconos;
 }
 
+// Conjugate directions stay on while they pay: once kMomentumWindow sweeps pass
+// without a new lowest estimate and the estimate is above kMomentumRise times that
+// lowest, they are off for the rest of the solve. On a pile of 400 boxes (1,617
+// contacts) the momentum took the estimate down to 7e-5 in 2,750 sweeps, then
+// cycled between 1e-4 and 7e-4 up to the 20,000-sweep cap; plain sweeps from there
+// converge. A plateau near the lowest (stacks, before Newton takes over) keeps them.
+constexpr int kMomentumWindow = 200;
+constexpr double kMomentumRise = 3.0;
+
+struct MomentumWatch {
+  double lowest = std::numeric_limits<double>::infinity();
+  int lowest_at = 0;
+  bool off = false;
+  /// After sweep `sweep` with in-sweep estimate `estimate`: true while the momentum stays on.
+  bool Pays(double estimate, int sweep) {
+    if (estimate < lowest) {
+      lowest = estimate;
+      lowest_at = sweep;
+    }
+    if (sweep - lowest_at > kMomentumWindow && estimate > kMomentumRise * lowest) off = true;
+    return !off;
+  }
+};
+
 // The conjugate step after a sweep (NsgsParams::conjugate): r_prev holds the forces
 // before the sweep, *last the previous sweep's |dr|^2 (0 before the first).
 template <class Op>
@@ -404,6 +429,7 @@ NsgsResult SolveNsgs(Op& op, Vec3* r, const NsgsParams& p, NsgsScratch& s) {
   NsgsStagnation stagnation;
   int sweep = 0;  // plain sweeps
   double last_change = 0.0;  // conjugate: the previous sweep's |dr|^2
+  MomentumWatch momentum;     // conjugate: on while it pays
   if (p.conjugate) {
     s.r_prev.resize(std::max(s.r_prev.size(), static_cast<size_t>(n)));
     s.direction.resize(std::max(s.direction.size(), static_cast<size_t>(n)));
@@ -418,7 +444,7 @@ NsgsResult SolveNsgs(Op& op, Vec3* r, const NsgsParams& p, NsgsScratch& s) {
     // the momentum only on a sweep that will not be checked: a checked or bounded
     // error is the error of the forces the sweep left
     if (p.conjugate && estimate.stop > p.tolerance && res.iterations < p.max_iterations &&
-        !(K > 0 && sweep % K == 0))
+        !(K > 0 && sweep % K == 0) && momentum.Pays(estimate.stop, res.iterations))
       ConjugateStep(op, r, s, n, &last_change);
     if (p.accept_error_bound && estimate.stop <= p.tolerance) {
       const NsgsErrors bound = NsgsErrorBound(sums, nq, p);

@@ -173,11 +173,19 @@ NsgsResult SolveNormalsOnly(WorldDelassus& op, Vec3* r, const NsgsParams& p) {
 // to Newton is the step's, turned into that error. The result is kept only when
 // the step's own measure of it is lower; the accumulators then move by the
 // difference. Never with a time budget (a factorisation does not fit in a paced
-// step) nor past WorldParams::newton_max_contacts; this path allocates (the steady
+// step), and at most the steps WorldParams::newton_max_work allows; this path allocates (the steady
 // state of a converging step never reaches it).
+// Newton steps the continuation may take on n contacts (WorldParams::newton_max_work)
+int NewtonStepsAllowed(const WorldParams& wp, int n) {
+  const double m = 3.0 * n;
+  const double per_step = (2.0 / 3.0) * m * m * m;
+  return static_cast<int>(std::min<double>(wp.newton_max_steps, std::floor(wp.newton_max_work / per_step)));
+}
+
 void ContinueWithNewton(World& w, WorldDelassus& op, const NsgsParams& params, NsgsResult* res) {
   const int n = op.NumContacts();
-  if (n == 0 || n > w.params.newton_max_contacts || params.time_budget_s > 0.0) return;
+  const int steps = n > 0 ? NewtonStepsAllowed(w.params, n) : 0;
+  if (steps <= 0 || params.time_budget_s > 0.0) return;
   for (int c = 0; c < n; ++c) w.rows[c].r = w.solve_r[c];
   FcProblem p;
   Eigen::VectorXd r;
@@ -192,7 +200,7 @@ void ContinueWithNewton(World& w, WorldDelassus& op, const NsgsParams& params, N
   p.W = p.W * d.cwiseInverse().asDiagonal();
   r = r.cwiseProduct(d);
   FcNewtonParams np;
-  np.max_iterations = w.params.newton_max_steps;
+  np.max_iterations = steps;
   np.tolerance = params.tolerance;
   if (scaled) {
     const double den = std::max({p.q.norm(), r.norm(), (p.W * r + p.q).norm(), 1e-300});

@@ -276,9 +276,13 @@ struct WorldParams {
   /// A step whose Gauss-Seidel ends unconverged continues with the semi-smooth
   /// Newton method on its assembled Delassus matrix (core/solver.cpp
   /// ContinueWithNewton), at most this many Newton steps (0: never), when it has
-  /// no time budget and at most newton_max_contacts contacts.
+  /// no time budget.
   int newton_max_steps = 50;
-  int newton_max_contacts = 2000;
+  /// ... and at most as many steps as fit in this much work, counted as a dense LU
+  /// factorisation's (2/3) m^3 multiply-adds per step, m = 3 x contacts: 50 steps up
+  /// to about 100 contacts, 16 at 150, 2 at 300, none from 382 on (a 951-contact step of a
+  /// replay had taken 4-5 s). The same in every run: no machine's speed enters it.
+  double newton_max_work = 1e9;
 };
 
 /// Work done by the last step, counted where it is done: what a scene does not

@@ -128,6 +128,56 @@ TEST(Newton, ARivalFasterThanAnyNewtonStopsItAfterItsGraceWithItsBestForces) {
   EXPECT_LE(FcError(p, r), 1e-6);
 }
 
+// The non-monotone line search: on a 10-box stack at mass ratio 100 (rank-deficient W,
+// contacts with r_N = u_N = 0 at the solution) the monotone rule cut nearly every
+// step short and took 157 steps from zero forces
+TEST(Newton, ANonMonotoneLineSearchSolvesAStackInFewSteps) {
+  const FcProblem p = MassRatioStackProblem(10, 100.0, 1);
+  FcNewtonParams np;
+  Eigen::VectorXd r;
+  const FcNewtonResult res = SolveFcNewton(p, np, &r);
+  EXPECT_TRUE(res.converged) << FcStopName(res.stop);
+  EXPECT_LE(FcError(p, r), 1e-6);
+  EXPECT_LT(res.iterations, 60);
+}
+
+// Runs stepped in turn keep nothing in common: each ends where it ends alone
+TEST(Newton, InterleavedRunsEndAsTheyDoAlone) {
+  const FcProblem p = MassRatioStackProblem(10, 10.0, 1);
+  FcNewtonParams np;
+  Eigen::VectorXd zero = Eigen::VectorXd::Zero(3 * p.contacts), nsgs;
+  FcMethodParams mp;
+  mp.max_sweeps = 300;
+  SolveFcMethod(p, EFcMethod::Nsgs, mp, &nsgs);
+  Eigen::VectorXd alone_a = zero, alone_b = nsgs;
+  const FcNewtonResult ra = SolveFcNewton(p, np, &alone_a), rb = SolveFcNewton(p, np, &alone_b);
+  FcNewtonRun a(p, np, zero), b(p, np, nsgs);
+  while (!a.Ended() || !b.Ended()) {
+    b.Step();
+    a.Step();
+  }
+  EXPECT_EQ(a.Result().iterations, ra.iterations);
+  EXPECT_EQ(b.Result().iterations, rb.iterations);
+  EXPECT_EQ(a.Best(), alone_a);
+  EXPECT_EQ(b.Best(), alone_b);
+}
+
+// auto's Newton stage runs from NSGS's stalled forces and from the start together:
+// on the 10-box stack at mass ratio 100, Newton from NSGS's forces alone ended at its
+// 200-step cap and auto took 17,876 sweeps
+TEST(Fallback, AutoFinishesAStackThatNewtonFromTheStalledForcesCannot) {
+  const FcProblem p = MassRatioStackProblem(10, 100.0, 1);
+  FcMethodParams mp;
+  Eigen::VectorXd r;
+  const FcMethodResult res = SolveFcMethod(p, EFcMethod::Auto, mp, &r);
+  EXPECT_TRUE(res.converged) << res.Summary();
+  EXPECT_LE(FcError(p, r), 1e-6);
+  EXPECT_TRUE(res.newton_ran) << res.Summary();
+  EXPECT_FALSE(res.nsgs_resumed) << res.Summary();
+  EXPECT_LT(res.nsgs.iterations, 2000) << res.Summary();
+  EXPECT_LT(res.newton.factorizations, 120) << res.Summary();
+}
+
 // auto never ends short of where NSGS alone would go: a Newton stage that stops at
 // its own cap hands the forces back to NSGS, which goes on without its rule
 TEST(Fallback, AutoGoesOnWithNsgsWhenNewtonEndsAtItsCap) {
