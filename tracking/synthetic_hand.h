@@ -4,11 +4,18 @@
 // its sides, lifts it 5 cm, holds it and releases it. Each datagram is what a
 // DTrack2 controller sends: fr, ts, 6dcal, 6d, glcal and gl lines (tips in the
 // hand frame), CR LF line ends.
+//
+// With `whole_hand`, a five-finger (or three-finger) hand whose every phalanx is
+// consistent with the gl block it sends (core/hand.h): palm down over the box, it
+// comes down until the palm is 1 mm above the lid, closes the four fingers over
+// the far face (+x) and the thumb on the near one (-x), both `squeeze_mm` into
+// the faces, lifts the box `lift_mm`, holds it `hold_s`, opens and rises.
 #pragma once
 
 #include <cstdint>
 #include <string>
 
+#include "core/hand.h"
 #include "core/types.h"
 
 namespace gs::tracking {
@@ -23,6 +30,13 @@ struct SyntheticHand {
   double reach_mm = 80.0;      ///< start height above the grasp height
   int fingers = 3;             ///< 3 or 5 (ring and little trail behind)
   double duration_s = 2.9;
+  bool whole_hand = false;     ///< every phalanx and the palm (see above); duration_s is then 2.8 s + hold_s
+  double hold_s = 3.0;         ///< whole hand: the hold with the box lifted
+
+  /// A whole hand of `fingers` fingers (duration_s set from hold_s).
+  static SyntheticHand WholeHand(int fingers, double hold_s);
+  /// Whole hand at time t: the back of the hand and each finger, room frame, m.
+  void WholeHandPose(double t, Pose* hand, TrackedFinger* out) const;
 
   /// The tips (thumb, index, middle, ring, little) at time t: room mm.
   void Tips(double t, Vec3* tips) const;
