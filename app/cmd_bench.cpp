@@ -36,8 +36,15 @@ void AddBenchCommand(CLI::App& app, int* exit_code) {
                 {{kExitOk, "the figures are printed"},
                  {kExitFailure, "the paper's box or fingertip geometry could not be built"},
                  usage, interrupted});
-  SetHelpFooter(add("step", "the whole time step on the paper grasp at its deepest (target 1 ms median)", RunBenchStep),
-                {{"graspsim bench step --quick", "step and stage medians on config/paper_box_grasp.yaml"}},
+  CLI::App* step = add("step", "the whole time step on the paper grasp at its deepest (target 1 ms median)", RunBenchStep);
+  step->add_option("--scene", opt->scene,
+                   "another scene: a scripted one is timed from 1 s on; a tracked one is driven by the synthetic hand "
+                   "(the whole-hand grasp when it has a tracked hand) and timed in its hold")
+      ->type_name("SCENE.yaml");
+  SetHelpFooter(step,
+                {{"graspsim bench step --quick", "step and stage medians on config/paper_box_grasp.yaml"},
+                 {"graspsim bench step --scene config/whole_hand_power_grasp.yaml",
+                  "the whole tracked hand holding the box (t = 2.1..3.1 s of the synthetic power grasp)"}},
                 {{kExitOk, "the figures are printed (a median over 1 ms is reported, not an error)"},
                  usage, {kExitBadInput, "config/paper_box_grasp.yaml was refused"}, interrupted});
   SetHelpFooter(add("mls", "MLS projection accuracy and cost on a sphere and an ellipsoid at the paper's density",

@@ -191,9 +191,12 @@ void ExcludeHandPairs(const Scene& scene, World& w) {
       const SceneHandSegment &a = th.segments[i], &b = th.segments[j];
       if (index[i] < 0 || index[j] < 0) continue;
       const bool same_finger = a.finger >= 0 && a.finger == b.finger;
-      // an inner phalanx meets the palm at its knuckle
-      const bool knuckle = (a.finger < 0 && b.segment == tracking::ESegment::Inner) ||
-                           (b.finger < 0 && a.segment == tracking::ESegment::Inner);
+      // an inner phalanx meets the palm at its knuckle; the thumb's inner and middle
+      // phalanges lie in the ball of the thumb, which the palm box covers
+      const auto rooted = [](const SceneHandSegment& s) {
+        return s.segment == tracking::ESegment::Inner || (s.finger == 0 && s.segment == tracking::ESegment::Middle);
+      };
+      const bool knuckle = (a.finger < 0 && rooted(b)) || (b.finger < 0 && rooted(a));
       if (same_finger || knuckle || !th.self_contact) w.SetCanTouch(index[i], index[j], false);
     }
 }
