@@ -24,11 +24,16 @@ struct SendOptions {
   int fingers = 0;  // 0: 3, or 5 with --whole-hand
   bool whole_hand = false;  // every phalanx and the palm (config/whole_hand_power_grasp.yaml)
   double hold = 3.0;
+  bool pinch = false;
   int loops = 1;
   double start_delay = 0.0;
 };
 
 int Send(const SendOptions& opt) {
+  if (opt.pinch && !(opt.synthetic && opt.whole_hand)) {
+    std::fprintf(stderr, "send: --pinch is a grasp of the synthetic whole hand: give it with --synthetic --whole-hand\n");
+    return kExitUsage;
+  }
   if (opt.synthetic == !opt.log.empty()) {
     std::fprintf(stderr, "send: give either a session log or --synthetic\n");
     return kExitUsage;
@@ -43,6 +48,7 @@ int Send(const SendOptions& opt) {
   tracking::SyntheticHand hand;
   hand.fingers = opt.fingers ? opt.fingers : 3;
   if (opt.whole_hand) hand = tracking::SyntheticHand::WholeHand(opt.fingers ? opt.fingers : 5, opt.hold);
+  hand.pinch = opt.pinch;
   const double synthetic_rate = opt.rate > 0 ? opt.rate : 100.0;
   uint64_t per_pass = 0;
   double period = 0.0;  // seconds from one pass's start to the next
@@ -131,6 +137,9 @@ void AddSendCommand(CLI::App& app, int* exit_code) {
   cmd->add_flag("--whole-hand", opt->whole_hand,
                 "synthetic: a whole hand (palm and every phalanx, consistent gl blocks) in a power grasp of the box "
                 "(config/whole_hand_power_grasp.yaml); with --fingers 5 (or 3: thumb, index, middle)");
+  cmd->add_flag("--pinch", opt->pinch,
+                "--whole-hand: a precision pinch, the thumb's and the index's outer phalanges on two faces "
+                "(config/tracked_whole_hand.yaml)");
   cmd->add_option("--hold", opt->hold, "--whole-hand: seconds the box is held lifted")
       ->type_name("SECONDS")
       ->capture_default_str()

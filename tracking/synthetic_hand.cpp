@@ -78,24 +78,55 @@ SyntheticHand SyntheticHand::WholeHand(int fingers, double hold_s) {
   return h;
 }
 
+namespace {
+
+// a precision pinch: the lid 5 mm under the palm, the index's outer phalanx on the
+// far face and the thumb's on the near one, both middle joints 8 mm over the lid;
+// the other fingers stay stretched above the box
+void PinchFingers(const HandModel& m, const Pose& hand, const Vec3& box, double half, double squeeze, double open,
+                  TrackedFinger* out) {
+  const double joint_z = box.z() - half + 8e-3;
+  for (int f = 2; f < m.fingers; ++f) out[f] = PoseFinger(m, f, hand, Vec3(0.0, 0.2, 0.1));
+  const HandFingerModel& ix = m.finger[1];
+  const Vec3 dip_closed(box.x() + half + ix.radius - squeeze, ix.root.t.y(), joint_z);
+  const Vec3 dip = dip_closed + open * Vec3(0.02, 0.0, -0.004);
+  out[1] = PoseFinger(m, 1, hand, ReachFlexions(ix, ix.root.ApplyInverse(dip), (1.0 - open) * 0.5 * M_PI + open * 0.35));
+}
+
+}  // namespace
+
 void SyntheticHand::WholeHandPose(double t, Pose* hand, TrackedFinger* out) const {
   double open = 0, height = 0;
   Phase(*this, t, &open, &height);
   const HandModel m = AverageAdultHand(fingers, true);
   const double half = 1e-3 * box_half_mm, squeeze = 1e-3 * squeeze_mm;
-  // the box in the hand frame: its lid 1 mm under the palm, its far face where the
-  // fingers' middle joints (x = 9.5 cm) put their phalanges `squeeze` into it
-  const double lid = m.palm.t.z() + 0.5 * m.palm_size.z() + 1e-3;
-  const Vec3 box(0.095 - half - m.finger[1].radius + squeeze, 0.0, lid + half);
+  // the box in the hand frame. Power grasp: its lid 1 mm under the palm, its far face
+  // where the fingers' middle joints (x = 9.5 cm) put their phalanges `squeeze` into
+  // it. Pinch: the lid 5 mm under the palm, centred between the thumb and the index
+  const double palm = m.palm.t.z() + 0.5 * m.palm_size.z();
+  const HandFingerModel& th = m.finger[0];
+  Vec3 box = pinch ? Vec3(0.05, 0.0, palm + 5e-3 + half)
+                   : Vec3(0.095 - half - m.finger[1].radius + squeeze, 0.0, palm + 1e-3 + half);
+  // the thumb's middle joint in its plane (the root frame's x-z plane), on the near face
+  const double thumb_x = box.x() - half - th.radius + squeeze;
+  const Vec3 along = th.root.R.col(0);
+  const double thumb_y = th.root.t.y() + (thumb_x - th.root.t.x()) * along.y() / along.x();
+  // pinch: the box centred between the thumb's and the index's pads
+  if (pinch) box.y() = 0.5 * (thumb_y + m.finger[1].root.t.y());
   // palm down, fingers along the room's +x
   hand->R = Eigen::AngleAxisd(M_PI, Vec3::UnitX()).toRotationMatrix();
   hand->t = 1e-3 * box_center_mm + Vec3(0, 0, 1e-3 * height) - hand->R * box;
-  // the four fingers hook over the far face; open, they stretch forward
-  const Vec3 closed(0.0, 0.5 * M_PI, 0.0), opened(0.0, 0.35, 0.15);
-  for (int f = 1; f < m.fingers; ++f) out[f] = PoseFinger(m, f, *hand, open * opened + (1.0 - open) * closed);
+  if (pinch) {
+    PinchFingers(m, *hand, box, half, squeeze, open, out);
+  } else {
+    // the four fingers hook over the far face; open, they stretch forward
+    const Vec3 closed(0.0, 0.5 * M_PI, 0.0), opened(0.0, 0.35, 0.15);
+    for (int f = 1; f < m.fingers; ++f) out[f] = PoseFinger(m, f, *hand, open * opened + (1.0 - open) * closed);
+  }
   // the thumb's middle joint on the near face, its outer phalanx down along it
-  const HandFingerModel& th = m.finger[0];
-  const Vec3 ip_closed(box.x() - half - th.radius + squeeze, 0.0, lid + 4e-3), ip_open(-0.015, 0.0, lid - 6e-3);
+  const double lid = box.z() - half;
+  const Vec3 ip_closed(thumb_x, thumb_y, lid + (pinch ? 8e-3 : 4e-3));
+  const Vec3 ip_open = pinch ? ip_closed + Vec3(-0.03, 0.0, -0.006) : Vec3(-0.015, 0.0, lid - 6e-3);
   const Vec3 ip = open * ip_open + (1.0 - open) * ip_closed;
   const Vec3 q = ReachFlexions(th, th.root.ApplyInverse(ip), (1.0 - open) * 0.5 * M_PI + open * 0.35);
   out[0] = PoseFinger(m, 0, *hand, q);

@@ -9,7 +9,9 @@
 // consistent with the gl block it sends (core/hand.h): palm down over the box, it
 // comes down until the palm is 1 mm above the lid, closes the four fingers over
 // the far face (+x) and the thumb on the near one (-x), both `squeeze_mm` into
-// the faces, lifts the box `lift_mm`, holds it `hold_s`, opens and rises.
+// the faces, lifts the box `lift_mm`, holds it `hold_s`, opens and rises. With
+// `pinch`, a precision pinch instead: the palm 5 mm over the lid, the index's and
+// the thumb's outer phalanges on the far and near faces, the other fingers stretched.
 #pragma once
 
 #include <cstdint>
@@ -32,6 +34,7 @@ struct SyntheticHand {
   double duration_s = 2.9;
   bool whole_hand = false;     ///< every phalanx and the palm (see above); duration_s is then 2.8 s + hold_s
   double hold_s = 3.0;         ///< whole hand: the hold with the box lifted
+  bool pinch = false;          ///< whole hand: a precision pinch (thumb and index tips) instead of the power grasp
 
   /// A whole hand of `fingers` fingers (duration_s set from hold_s).
   static SyntheticHand WholeHand(int fingers, double hold_s);

@@ -233,7 +233,8 @@ TEST(WholeHand, BadFingerBlocksLeaveTheirSegmentsInvalidAndNeverNaN) {
 // steps the scene on the synthetic whole hand's datagrams at 100 Hz, in simulated time
 class Session {
  public:
-  explicit Session(const std::string& text) : hand_(SyntheticHand::WholeHand(5, 3.0)) {
+  explicit Session(const std::string& text, bool pinch = false) : hand_(SyntheticHand::WholeHand(5, 3.0)) {
+    hand_.pinch = pinch;
     const std::string path =
         std::filesystem::temp_directory_path() / ("graspsim_whole_hand_" + std::to_string(getpid()) + ".yaml");
     std::ofstream(path) << text;
@@ -322,8 +323,8 @@ struct Hold {
   bool finite = true;
 };
 
-Hold RunPowerGrasp(const std::string& text, double end) {
-  Session s(text);
+Hold RunGrasp(const std::string& text, double end, bool pinch = false) {
+  Session s(text, pinch);
   Hold h;
   if (!s.ok()) return h;
   const World& w = s.sim().world();
@@ -341,7 +342,7 @@ Hold RunPowerGrasp(const std::string& text, double end) {
 }
 
 TEST(WholeHand, PowerGraspHoldsTheBoxThroughAThreeSecondHoldAtFrictionHalf) {
-  const Hold h = RunPowerGrasp(SceneText(), 5.0);
+  const Hold h = RunGrasp(SceneText(), 5.0);
   // lifted most of the hand's 5 cm, from resting at 30.2 mm
   EXPECT_GT(h.lifted, 0.0302 + 0.04);
   // and held there: the box neither slips down nor is thrown
@@ -353,9 +354,29 @@ TEST(WholeHand, PowerGraspHoldsTheBoxThroughAThreeSecondHoldAtFrictionHalf) {
 
 TEST(WholeHand, PowerGraspCannotLiftTheBoxAtFrictionOneTenth) {
   // the same grasp with too little friction: the fingers slide up the faces
-  const Hold h = RunPowerGrasp(Replace(SceneText(), "default: 0.5", "default: 0.1"), 2.2);
+  const Hold h = RunGrasp(Replace(SceneText(), "default: 0.5", "default: 0.1"), 2.2);
   EXPECT_LT(h.lifted, 0.0302 + 0.01);
   EXPECT_TRUE(h.finite);
+}
+
+std::string PinchText() {
+  std::ifstream f(std::string(GRASPSIM_SOURCE_DIR) + "/config/tracked_whole_hand.yaml");
+  std::stringstream s;
+  s << f.rdbuf();
+  return s.str();
+}
+
+TEST(WholeHand, PrecisionPinchHoldsTheBoxAtFrictionPointEightAndNotAtPointFour) {
+  const Hold h = RunGrasp(PinchText(), 5.0, true);
+  EXPECT_GT(h.lifted, 0.0302 + 0.04);
+  EXPECT_GT(h.lowest, h.lifted - 0.003);
+  EXPECT_LT(h.highest, h.lifted + 0.003);
+  EXPECT_TRUE(h.finite);
+  EXPECT_EQ(h.rejected, 0);
+  // two pads only: half the friction does not lift it
+  const Hold slip = RunGrasp(Replace(PinchText(), "default: 0.8", "default: 0.4"), 2.2, true);
+  EXPECT_LT(slip.lifted, 0.0302 + 0.01);
+  EXPECT_TRUE(slip.finite);
 }
 
 }  // namespace
