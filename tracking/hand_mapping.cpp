@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include "core/hand.h"
 
@@ -107,8 +108,15 @@ std::string MissingLabel(const TrackerConfig& c, int missing_code) {
     const std::string hand = "hand " + std::to_string(c.hand_id);
     if (missing_code < 0 || missing_code >= static_cast<int>(c.fingertips.size()))
       return c.hand_side < 0 ? hand : hand + (c.hand_side == 1 ? " (right)" : " (left)");
-    if (c.fingertips[missing_code].finger < 0) return "the palm of " + hand;
-    return "finger " + std::to_string(c.fingertips[missing_code].finger) + " of " + hand;
+    const FingertipMap& m = c.fingertips[missing_code];
+    if (m.finger < 0) return "the palm of " + hand;
+    const std::string finger = "finger " + std::to_string(m.finger) + " of " + hand;
+    if (m.segment == ESegment::Tip) return finger;
+    // a phalanx has no target also when the finger's block cannot be a finger (MapFrame)
+    char range[96];
+    std::snprintf(range, sizeof(range), " (or its gl block with a phalanx length or radius outside %g to %g mm)",
+                  1e3 * c.min_phalanx_m, 1e3 * c.max_phalanx_m);
+    return finger + range;
   }
   if (missing_code < 0 || missing_code >= static_cast<int>(c.fingertips.size())) return "the tracked bodies";
   return "body " + std::to_string(c.fingertips[missing_code].body_id);

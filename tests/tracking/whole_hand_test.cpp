@@ -208,7 +208,8 @@ TEST(WholeHand, BadFingerBlocksLeaveTheirSegmentsInvalidAndNeverNaN) {
   EXPECT_FALSE(m.sample.valid[m.Target("ring_outer")]);
   EXPECT_TRUE(m.sample.valid[m.Target("middle_outer")]);
   EXPECT_EQ(JudgeFrame(m.frame, 0, m.scene.tracker, m.sample, &code), ECarries::Missing);
-  EXPECT_EQ(MissingLabel(m.scene.tracker, code), "finger 3 of hand 0");
+  EXPECT_EQ(MissingLabel(m.scene.tracker, code),
+            "finger 3 of hand 0 (or its gl block with a phalanx length or radius outside 5 to 120 mm)");
   // phalanx lengths of 0 and of 1 m, a NaN angle: that finger's segments only
   for (double bad : {0.0, 1000.0, std::nan("")}) {
     m.frame = good;
@@ -218,6 +219,8 @@ TEST(WholeHand, BadFingerBlocksLeaveTheirSegmentsInvalidAndNeverNaN) {
     EXPECT_EQ(ValidCount(m.sample), 16 - 3) << bad;
     EXPECT_FALSE(m.sample.valid[m.Target("index_inner")]);
     EXPECT_FALSE(m.sample.valid[m.Target("index_outer")]);
+    EXPECT_EQ(JudgeFrame(m.frame, 0, m.scene.tracker, m.sample, &code), ECarries::Missing);
+    EXPECT_EQ(MissingLabel(m.scene.tracker, code).rfind("finger 1 of hand 0 (or its gl block", 0), 0u);
     ExpectFinite(m.sample);
   }
   // a left hand where the scene has a right one: nothing
