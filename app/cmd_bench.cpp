@@ -41,10 +41,15 @@ void AddBenchCommand(CLI::App& app, int* exit_code) {
                    "another scene: a scripted one is timed from 1 s on; a tracked one is driven by the synthetic hand "
                    "(the whole-hand grasp when it has a tracked hand) and timed in its hold")
       ->type_name("SCENE.yaml");
+  step->add_flag("--pinch", opt->pinch,
+                 "a tracked hand's synthetic input is the precision pinch (config/tracked_whole_hand.yaml) instead of "
+                 "the power grasp");
   SetHelpFooter(step,
                 {{"graspsim bench step --quick", "step and stage medians on config/paper_box_grasp.yaml"},
                  {"graspsim bench step --scene config/whole_hand_power_grasp.yaml",
-                  "the whole tracked hand holding the box (t = 2.1..3.1 s of the synthetic power grasp)"}},
+                  "the whole tracked hand holding the box (t = 2.1..3.1 s of the synthetic power grasp)"},
+                 {"graspsim bench step --scene config/tracked_whole_hand.yaml --pinch",
+                  "the same hand pinching the box between thumb and index"}},
                 {{kExitOk, "the figures are printed (a median over 1 ms is reported, not an error)"},
                  usage, {kExitBadInput, "config/paper_box_grasp.yaml was refused"}, interrupted});
   SetHelpFooter(add("mls", "MLS projection accuracy and cost on a sphere and an ellipsoid at the paper's density",

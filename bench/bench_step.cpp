@@ -31,7 +31,7 @@ double MedianOf(std::vector<double> v) {
 // datagrams at 100 Hz in simulated time
 class Driver {
  public:
-  bool Load(const std::string& path, std::string* error) {
+  bool Load(const std::string& path, bool pinch, std::string* error) {
     auto built = std::make_unique<BuiltScene>();
     if (!LoadAndBuildScene(path, built.get(), error)) return false;
     if (!built->has_tracker) {
@@ -40,14 +40,8 @@ class Driver {
     }
     sim_ = std::make_unique<TrackedSim>();
     if (!sim_->Load(path, error)) return false;
-    int fingers = 0;
-    bool whole = false;
-    for (const tracking::FingertipMap& f : sim_->config().fingertips) {
-      fingers = std::max(fingers, f.finger + 1);
-      whole |= f.segment != tracking::ESegment::Tip;
-    }
-    hand_ = whole ? tracking::SyntheticHand::WholeHand(fingers, 3.0) : tracking::SyntheticHand();
-    if (!whole) hand_.fingers = fingers > 3 ? 5 : 3;
+    hand_ = tracking::SyntheticHandFor(sim_->config());
+    hand_.pinch = pinch && hand_.whole_hand;
     return true;
   }
   World& world() { return sim_ ? sim_->world() : built_->world; }
@@ -86,7 +80,7 @@ int RunBenchStep(const BenchOptions& opt) {
   const std::string path = ResolveResource(opt.scene.empty() ? "config/paper_box_grasp.yaml" : opt.scene);
   auto driver = std::make_unique<Driver>();
   std::string error;
-  if (!driver->Load(path, &error)) {
+  if (!driver->Load(path, opt.pinch, &error)) {
     std::fprintf(stderr, "%s\n", error.c_str());
     return 3;
   }

@@ -220,4 +220,17 @@ std::string SyntheticHand::Datagram(double t, uint32_t frame) const {
   return s;
 }
 
+SyntheticHand SyntheticHandFor(const TrackerConfig& c) {
+  int fingers = 0;
+  bool whole = false;
+  for (const FingertipMap& f : c.fingertips) {
+    fingers = std::max(fingers, f.finger + 1);
+    whole |= f.segment != ESegment::Tip;
+  }
+  if (whole) return SyntheticHand::WholeHand(fingers, 3.0);
+  SyntheticHand h;
+  h.fingers = fingers > 3 ? 5 : 3;
+  return h;
+}
+
 }  // namespace gs::tracking

@@ -19,6 +19,7 @@
 
 #include "core/hand.h"
 #include "core/types.h"
+#include "tracking/tracker_config.h"
 
 namespace gs::tracking {
 
@@ -48,5 +49,10 @@ struct SyntheticHand {
   /// The datagram of frame number `frame` at time t (s from the start).
   std::string Datagram(double t, uint32_t frame) const;
 };
+
+/// The synthetic hand that drives a scene's tracker: the whole hand (power grasp)
+/// when it follows a tracked hand's segments, with its number of fingers; else
+/// the fingertips' hand, with five fingers when it follows ring or little.
+SyntheticHand SyntheticHandFor(const TrackerConfig& c);
 
 }  // namespace gs::tracking
