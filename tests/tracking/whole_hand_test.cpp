@@ -6,6 +6,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -181,6 +182,30 @@ TEST(WholeHand, SegmentTargetsAreThePhalangesOfTheSentHand) {
   // closed: the fingers' middle phalanges stand against the box's far face, the thumb's outer against the near one
   EXPECT_NEAR(m.sample.pose[m.Target("index_middle")].t.x(), 0.03 + 0.008 - 0.004, 1e-4);
   EXPECT_NEAR(m.sample.pose[m.Target("thumb_outer")].t.x(), -(0.03 + 0.0095 - 0.004), 1e-3);
+}
+
+TEST(WholeHand, SyntheticPinchPutsTheThumbAndIndexPadsIntoTwoFaces) {
+  Mapped m;
+  std::string error;
+  ASSERT_TRUE(Build(SceneText(), &m.scene, &error)) << error;
+  m.hand.pinch = true;
+  m.Parse(1.3);  // closed, not lifted yet
+  m.Map();
+  // the outer phalanges stand 4 mm into the far (+x) and near (-x) faces of the box at the origin
+  const Pose index = m.sample.pose[m.Target("index_outer")], thumb = m.sample.pose[m.Target("thumb_outer")];
+  EXPECT_NEAR(index.t.x(), 0.03 + 0.008 - 0.004, 1e-4);
+  EXPECT_NEAR(thumb.t.x(), -(0.03 + 0.0095 - 0.004), 1e-4);
+  // upright (a capsule's axis is its z), and the pinch axis passes over the box's centre
+  EXPECT_GT(std::abs(index.R.col(2).z()), 0.99);
+  EXPECT_GT(std::abs(thumb.R.col(2).z()), 0.99);
+  EXPECT_NEAR(index.t.y() + thumb.t.y(), 0.0, 1e-4);
+  // the palm and the other fingers stay clear of the lid (z = 6 cm)
+  EXPECT_GT(m.sample.pose[m.Target("palm")].t.z() - 0.0125, 0.06 + 0.004);
+  for (const char* name : {"middle_outer", "middle_middle", "ring_outer", "little_outer"}) {
+    const Vec3 c = m.sample.pose[m.Target(name)].t;
+    const Vec3 nearest(std::clamp(c.x(), -0.03, 0.03), std::clamp(c.y(), -0.03, 0.03), std::clamp(c.z(), 0.0, 0.06));
+    EXPECT_GT((c - nearest).norm(), 0.008) << name;  // the centre is farther from the box than the capsule's radius
+  }
 }
 
 int ValidCount(const TargetSample& s) {
