@@ -33,6 +33,7 @@ Mat3 RotationDeg(const Vec3& deg) {
 struct SegmentDensity {
   int64_t points = 0, control_points = 0;
   double mass = 0.0;
+  bool contact_points = true;  ///< two-pass contact, as a body's `contact_points`
 };
 
 void ReadDensity(MapReader& parent, const char* key, SegmentDensity* d, Vec3* palm_size, Pose* palm_offset) {
@@ -43,6 +44,7 @@ void ReadDensity(MapReader& parent, const char* key, SegmentDensity* d, Vec3* pa
   m.Integer("points", &d->points, 4, 2000000, false);
   m.Integer("control_points", &d->control_points, 1, 2000000, false);
   m.Number("mass_kg", &d->mass, 0, kBig, false, true);
+  m.Flag("contact_points", &d->contact_points, false);
   if (palm_size) {
     m.Vector3("size_m", palm_size, 1e-4, 1.0, false);
     m.Vector3("offset_m", &palm_offset->t, -1.0, 1.0, false);
@@ -81,6 +83,7 @@ SceneBody SegmentBody(const std::string& name, const Pose& pose, const SegmentDe
   b.spec.deformation = def;
   b.spec.geometry.points = static_cast<int>(d.points);
   b.spec.geometry.control_points = static_cast<int>(d.control_points);
+  b.spec.emits_contacts = d.contact_points;
   b.at = b.position_at = b.shape_at = b.bandwidth_at = at;
   return b;
 }
@@ -133,7 +136,7 @@ void ReadTrackedHand(const YAML::Node& node, const std::string& file, Scene* s, 
   HandModel hm = AverageAdultHand(fingers == 3 ? 3 : 5, th.right);
   // densities: the palm at the paper's fingertip density, a phalanx at the tracked
   // fingertips' (config/tracked_hand.yaml), so that a grasp's step fits in 1 ms
-  SegmentDensity palm{2400, 320, 0.1}, phalanx{400, 50, 0.02};
+  SegmentDensity palm{2400, 320, 0.1, true}, phalanx{400, 50, 0.02, true};
   ReadDensity(m, "palm", &palm, &hm.palm_size, &hm.palm);
   ReadDensity(m, "phalanx", &phalanx, nullptr, nullptr);
   ReadSizes(m, &hm);
