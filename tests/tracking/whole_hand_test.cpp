@@ -18,6 +18,7 @@
 #include "tracking/dtrack_parser.h"
 #include "tracking/hand_mapping.h"
 #include "tracking/synthetic_hand.h"
+#include "test_util.h"
 
 namespace gs::tracking {
 namespace {
@@ -100,6 +101,23 @@ TEST(WholeHand, SceneMakesOneBodyPerSegmentAndKeepsTheHandsSegmentsApart) {
   EXPECT_TRUE(sw.CanTouch(palm, mo));
   EXPECT_TRUE(sw.CanTouch(palm, BodyIndex(sw, "thumb_outer")));
   EXPECT_FALSE(sw.CanTouch(palm, BodyIndex(sw, "thumb_middle")));
+}
+
+TEST(WholeHand, LeftHandIsTheRightOneMirrored) {
+  app::BuiltScene right, left;
+  std::string error;
+  ASSERT_TRUE(Build(SceneText(), &right, &error)) << error;
+  ASSERT_TRUE(Build(Replace(SceneText(), "side: right", "side: left"), &left, &error)) << error;
+  EXPECT_EQ(left.tracker.hand_side, 0);
+  // the hand frame is palm down at y = 0 in both: every segment mirrored in y
+  for (const char* name : {"palm", "thumb_inner", "thumb_outer", "index_middle", "little_outer"}) {
+    const Vec3 r = right.world.bodies[BodyIndex(right.world, name)].pose.t;
+    const Vec3 l = left.world.bodies[BodyIndex(left.world, name)].pose.t;
+    EXPECT_NEAR(l.x(), r.x(), 1e-12) << name;
+    EXPECT_NEAR(l.y(), -r.y(), 1e-12) << name;
+    EXPECT_NEAR(l.z(), r.z(), 1e-12) << name;
+  }
+  EXPECT_GT(std::abs(right.world.bodies[BodyIndex(right.world, "thumb_inner")].pose.t.y()), 0.02);
 }
 
 TEST(WholeHand, ThreeFingerHandHasThumbIndexAndMiddle) {
@@ -405,6 +423,28 @@ TEST(WholeHand, PrecisionPinchHoldsTheBoxAtFrictionPointEightAndNotAtPointFour) 
   const Hold slip = RunGrasp(Replace(PinchText(), "default: 0.8", "default: 0.4"), 2.2, true);
   EXPECT_LT(slip.lifted, 0.0302 + 0.01);
   EXPECT_TRUE(slip.finite);
+}
+
+TEST(WholeHand, ShippedPinchSessionReplaysBitIdenticallyAndLifts) {
+  const std::string dir = test::TempDir("whole_hand_replay");
+  uint64_t hashes[2] = {0, 0};
+  std::string summary, tips;
+  for (int run = 0; run < 2; ++run) {
+    const std::string out = dir + "/replay" + std::to_string(run);
+    const test::Result r = test::Run(test::Binary() + " replay config/tracked_whole_hand.yaml " +
+                                     GRASPSIM_SOURCE_DIR + "/assets/tracked_whole_hand.lcmlog --duration 2.2 --out " + out);
+    ASSERT_EQ(r.code, 0) << r.output;
+    for (const char* f : {"trajectory.csv", "fingertips.csv", "tracker.csv", "summary.json"})
+      hashes[run] = hashes[run] * 31 + test::Hash(test::ReadFile(out + "/" + f));
+    summary = test::ReadFile(out + "/summary.json");
+    tips = test::ReadFile(out + "/fingertips.csv");
+  }
+  EXPECT_EQ(hashes[0], hashes[1]) << "replays differ";
+  EXPECT_NE(summary.find("\"lifted\":true"), std::string::npos) << summary;
+  EXPECT_NE(summary.find("\"rejected_steps\":0"), std::string::npos) << summary;
+  // every segment's state, target and coupling force
+  for (const char* col : {"palm_state", "thumb_outer_force_x_N", "little_inner_target_z_m"})
+    EXPECT_NE(tips.find(col), std::string::npos) << col;
 }
 
 }  // namespace
