@@ -6,7 +6,8 @@
 //
 // Conventions (ART's, dtrack-protocol.md section 5):
 // - a phalanx frame has x along the phalanx toward the fingertip and z toward
-//   the pad (the palm side); the joints turn about y;
+//   the pad (the palm side: inferred, since with the chain below the positive
+//   angles of every example packet curl the finger toward +z); the joints turn about y;
 // - the chain runs back from the tip: outer joint = tip - lo x_outer;
 //   R_middle = R_outer Ry(a_om), middle joint = outer joint - lm x_middle;
 //   R_inner = R_middle Ry(a_mi), root joint = middle joint - li x_inner. A positive
