@@ -80,17 +80,56 @@ SyntheticHand SyntheticHand::WholeHand(int fingers, double hold_s) {
 
 namespace {
 
-// a precision pinch: the lid 5 mm under the palm, the index's outer phalanx on the
-// far face and the thumb's on the near one, both middle joints 8 mm over the lid;
-// the other fingers stay stretched above the box
-void PinchFingers(const HandModel& m, const Pose& hand, const Vec3& box, double half, double squeeze, double open,
-                  TrackedFinger* out) {
-  const double joint_z = box.z() - half + 8e-3;
+// where a whole-hand grasp puts the box and the thumb's middle joint, in the hand frame
+struct Grasp {
+  Vec3 box;                     ///< the box's centre
+  Vec3 thumb;                   ///< the thumb's middle joint, closed
+  double half = 0.0, squeeze = 0.0;
+  double Lid() const { return box.z() - half; }
+};
+
+// Power grasp: the lid 1 mm under the palm, the far face where the fingers' middle
+// joints (x = 9.5 cm) put their phalanges `squeeze` into it. Pinch: the lid 5 mm under
+// the palm, the box centred between the thumb's and the index's pads. The thumb's
+// middle joint lies in its plane (the root frame's x-z plane), `squeeze` into the near face.
+Grasp GraspGeometry(const HandModel& m, bool pinch, double half, double squeeze) {
+  Grasp g;
+  g.half = half;
+  g.squeeze = squeeze;
+  const double palm = m.palm.t.z() + 0.5 * m.palm_size.z();
+  g.box = pinch ? Vec3(0.05, 0.0, palm + 5e-3 + half)
+                : Vec3(0.095 - half - m.finger[1].radius + squeeze, 0.0, palm + 1e-3 + half);
+  const HandFingerModel& th = m.finger[0];
+  const double x = g.box.x() - half - th.radius + squeeze;
+  const Vec3 along = th.root.R.col(0);
+  const double y = th.root.t.y() + (x - th.root.t.x()) * along.y() / along.x();
+  if (pinch) g.box.y() = 0.5 * (y + m.finger[1].root.t.y());
+  g.thumb = Vec3(x, y, g.Lid() + (pinch ? 8e-3 : 4e-3));
+  return g;
+}
+
+// the four fingers hook over the far face; open, they stretch forward
+void PowerFingers(const HandModel& m, const Pose& hand, double open, TrackedFinger* out) {
+  const Vec3 closed(0.0, 0.5 * M_PI, 0.0), opened(0.0, 0.35, 0.15);
+  for (int f = 1; f < m.fingers; ++f) out[f] = PoseFinger(m, f, hand, open * opened + (1.0 - open) * closed);
+}
+
+// the index's outer phalanx on the far face, its middle joint 8 mm over the lid; the
+// other fingers stay stretched above the box
+void PinchFingers(const HandModel& m, const Pose& hand, const Grasp& g, double open, TrackedFinger* out) {
   for (int f = 2; f < m.fingers; ++f) out[f] = PoseFinger(m, f, hand, Vec3(0.0, 0.2, 0.1));
   const HandFingerModel& ix = m.finger[1];
-  const Vec3 dip_closed(box.x() + half + ix.radius - squeeze, ix.root.t.y(), joint_z);
-  const Vec3 dip = dip_closed + open * Vec3(0.02, 0.0, -0.004);
+  const Vec3 closed(g.box.x() + g.half + ix.radius - g.squeeze, ix.root.t.y(), g.Lid() + 8e-3);
+  const Vec3 dip = closed + open * Vec3(0.02, 0.0, -0.004);
   out[1] = PoseFinger(m, 1, hand, ReachFlexions(ix, ix.root.ApplyInverse(dip), (1.0 - open) * 0.5 * M_PI + open * 0.35));
+}
+
+// the thumb's middle joint on the near face, its outer phalanx down along it
+TrackedFinger Thumb(const HandModel& m, const Pose& hand, const Grasp& g, bool pinch, double open) {
+  const HandFingerModel& th = m.finger[0];
+  const Vec3 ip_open = pinch ? g.thumb + Vec3(-0.03, 0.0, -0.006) : Vec3(-0.015, 0.0, g.Lid() - 6e-3);
+  const Vec3 ip = open * ip_open + (1.0 - open) * g.thumb;
+  return PoseFinger(m, 0, hand, ReachFlexions(th, th.root.ApplyInverse(ip), (1.0 - open) * 0.5 * M_PI + open * 0.35));
 }
 
 }  // namespace
@@ -99,37 +138,15 @@ void SyntheticHand::WholeHandPose(double t, Pose* hand, TrackedFinger* out) cons
   double open = 0, height = 0;
   Phase(*this, t, &open, &height);
   const HandModel m = AverageAdultHand(fingers, true);
-  const double half = 1e-3 * box_half_mm, squeeze = 1e-3 * squeeze_mm;
-  // the box in the hand frame. Power grasp: its lid 1 mm under the palm, its far face
-  // where the fingers' middle joints (x = 9.5 cm) put their phalanges `squeeze` into
-  // it. Pinch: the lid 5 mm under the palm, centred between the thumb and the index
-  const double palm = m.palm.t.z() + 0.5 * m.palm_size.z();
-  const HandFingerModel& th = m.finger[0];
-  Vec3 box = pinch ? Vec3(0.05, 0.0, palm + 5e-3 + half)
-                   : Vec3(0.095 - half - m.finger[1].radius + squeeze, 0.0, palm + 1e-3 + half);
-  // the thumb's middle joint in its plane (the root frame's x-z plane), on the near face
-  const double thumb_x = box.x() - half - th.radius + squeeze;
-  const Vec3 along = th.root.R.col(0);
-  const double thumb_y = th.root.t.y() + (thumb_x - th.root.t.x()) * along.y() / along.x();
-  // pinch: the box centred between the thumb's and the index's pads
-  if (pinch) box.y() = 0.5 * (thumb_y + m.finger[1].root.t.y());
-  // palm down, fingers along the room's +x
+  const Grasp g = GraspGeometry(m, pinch, 1e-3 * box_half_mm, 1e-3 * squeeze_mm);
+  // palm down, fingers along the room's +x, the box where the grasp wants it
   hand->R = Eigen::AngleAxisd(M_PI, Vec3::UnitX()).toRotationMatrix();
-  hand->t = 1e-3 * box_center_mm + Vec3(0, 0, 1e-3 * height) - hand->R * box;
-  if (pinch) {
-    PinchFingers(m, *hand, box, half, squeeze, open, out);
-  } else {
-    // the four fingers hook over the far face; open, they stretch forward
-    const Vec3 closed(0.0, 0.5 * M_PI, 0.0), opened(0.0, 0.35, 0.15);
-    for (int f = 1; f < m.fingers; ++f) out[f] = PoseFinger(m, f, *hand, open * opened + (1.0 - open) * closed);
-  }
-  // the thumb's middle joint on the near face, its outer phalanx down along it
-  const double lid = box.z() - half;
-  const Vec3 ip_closed(thumb_x, thumb_y, lid + (pinch ? 8e-3 : 4e-3));
-  const Vec3 ip_open = pinch ? ip_closed + Vec3(-0.03, 0.0, -0.006) : Vec3(-0.015, 0.0, lid - 6e-3);
-  const Vec3 ip = open * ip_open + (1.0 - open) * ip_closed;
-  const Vec3 q = ReachFlexions(th, th.root.ApplyInverse(ip), (1.0 - open) * 0.5 * M_PI + open * 0.35);
-  out[0] = PoseFinger(m, 0, *hand, q);
+  hand->t = 1e-3 * box_center_mm + Vec3(0, 0, 1e-3 * height) - hand->R * g.box;
+  if (pinch)
+    PinchFingers(m, *hand, g, open, out);
+  else
+    PowerFingers(m, *hand, open, out);
+  out[0] = Thumb(m, *hand, g, pinch, open);
 }
 
 void SyntheticHand::Tips(double t, Vec3* tips) const {
