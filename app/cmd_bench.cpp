@@ -144,6 +144,9 @@ void AddBenchCommand(CLI::App& app, int* exit_code) {
       ->type_name("FILE.csv");
   realtime->add_option("--scene", opt->scene, "a scene with a tracker section (default config/tracked_paper_grasp.yaml, the paper's densities)")
       ->type_name("SCENE.yaml");
+  realtime->add_flag("--pinch", opt->pinch,
+                     "a tracked hand's synthetic input is the precision pinch (config/tracked_whole_hand.yaml) instead "
+                     "of the power grasp");
   SetHelpFooter(realtime,
                 {{"graspsim bench realtime --quick", "a 2 s session instead of 60 s"},
                  {"graspsim bench realtime --seconds 10 --scene config/tracked_hand.yaml --steps-csv steps.csv",

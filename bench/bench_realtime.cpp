@@ -413,6 +413,7 @@ int RunBenchRealtime(const BenchOptions& opt) {
     Scene parsed;
     std::vector<SceneError> errors;
     if (LoadScene(scene, &parsed, &errors)) hand = tracking::SyntheticHandFor(parsed.tracker);
+    hand.pinch = opt.pinch && hand.whole_hand;
   }
   const Session session = MakeSession(seconds, hand);
   if (!opt.json)
