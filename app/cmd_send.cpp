@@ -159,8 +159,8 @@ void AddSendCommand(CLI::App& app, int* exit_code) {
                   "a recorded session, three times at its recorded pace"}},
                 {{kExitOk, "every datagram was sent"},
                  {kExitFailure, "a datagram could not be sent"},
-                 {kExitUsage, "bad command line: neither or both of FILE.lcmlog and --synthetic, or a --host that "
-                              "cannot be used"},
+                 {kExitUsage, "bad command line: neither or both of FILE.lcmlog and --synthetic, --pinch without "
+                              "--synthetic --whole-hand, or a --host that cannot be used"},
                  {kExitBadInput, "the session log was refused or holds no datagrams"},
                  {kExitInterrupted, "stopped early by Ctrl-C or SIGTERM"}});
   cmd->callback([opt, exit_code]() { *exit_code = Send(*opt); });
