@@ -36,8 +36,20 @@ void AddBenchCommand(CLI::App& app, int* exit_code) {
                 {{kExitOk, "the figures are printed"},
                  {kExitFailure, "the paper's box or fingertip geometry could not be built"},
                  usage, interrupted});
-  SetHelpFooter(add("step", "the whole time step on the paper grasp at its deepest (target 1 ms median)", RunBenchStep),
-                {{"graspsim bench step --quick", "step and stage medians on config/paper_box_grasp.yaml"}},
+  CLI::App* step = add("step", "the whole time step on the paper grasp at its deepest (target 1 ms median)", RunBenchStep);
+  step->add_option("--scene", opt->scene,
+                   "another scene: a scripted one is timed from 1 s on; a tracked one is driven by the synthetic hand "
+                   "(the whole-hand grasp when it has a tracked hand) and timed in its hold")
+      ->type_name("SCENE.yaml");
+  step->add_flag("--pinch", opt->pinch,
+                 "a tracked hand's synthetic input is the precision pinch (config/tracked_whole_hand.yaml) instead of "
+                 "the power grasp");
+  SetHelpFooter(step,
+                {{"graspsim bench step --quick", "step and stage medians on config/paper_box_grasp.yaml"},
+                 {"graspsim bench step --scene config/whole_hand_power_grasp.yaml",
+                  "the whole tracked hand holding the box (t = 2.1..3.1 s of the synthetic power grasp)"},
+                 {"graspsim bench step --scene config/tracked_whole_hand.yaml --pinch",
+                  "the same hand pinching the box between thumb and index"}},
                 {{kExitOk, "the figures are printed (a median over 1 ms is reported, not an error)"},
                  usage, {kExitBadInput, "config/paper_box_grasp.yaml was refused"}, interrupted});
   SetHelpFooter(add("mls", "MLS projection accuracy and cost on a sphere and an ellipsoid at the paper's density",
@@ -137,6 +149,9 @@ void AddBenchCommand(CLI::App& app, int* exit_code) {
       ->type_name("FILE.csv");
   realtime->add_option("--scene", opt->scene, "a scene with a tracker section (default config/tracked_paper_grasp.yaml, the paper's densities)")
       ->type_name("SCENE.yaml");
+  realtime->add_flag("--pinch", opt->pinch,
+                     "a tracked hand's synthetic input is the precision pinch (config/tracked_whole_hand.yaml) instead "
+                     "of the power grasp");
   SetHelpFooter(realtime,
                 {{"graspsim bench realtime --quick", "a 2 s session instead of 60 s"},
                  {"graspsim bench realtime --seconds 10 --scene config/tracked_hand.yaml --steps-csv steps.csv",

@@ -21,12 +21,19 @@ struct SendOptions {
   std::string host = "127.0.0.1";
   int port = 5000;
   double rate = 0.0;  // 0: the log's pace; synthetic default 100
-  int fingers = 3;
+  int fingers = 0;  // 0: 3, or 5 with --whole-hand
+  bool whole_hand = false;  // every phalanx and the palm (config/whole_hand_power_grasp.yaml)
+  double hold = 3.0;
+  bool pinch = false;
   int loops = 1;
   double start_delay = 0.0;
 };
 
 int Send(const SendOptions& opt) {
+  if (opt.pinch && !(opt.synthetic && opt.whole_hand)) {
+    std::fprintf(stderr, "send: --pinch is a grasp of the synthetic whole hand: give it with --synthetic --whole-hand\n");
+    return kExitUsage;
+  }
   if (opt.synthetic == !opt.log.empty()) {
     std::fprintf(stderr, "send: give either a session log or --synthetic\n");
     return kExitUsage;
@@ -39,7 +46,9 @@ int Send(const SendOptions& opt) {
   }
   // one pass: the synthetic hand, or the log streamed (sessions can be longer than memory)
   tracking::SyntheticHand hand;
-  hand.fingers = opt.fingers;
+  hand.fingers = opt.fingers ? opt.fingers : 3;
+  if (opt.whole_hand) hand = tracking::SyntheticHand::WholeHand(opt.fingers ? opt.fingers : 5, opt.hold);
+  hand.pinch = opt.pinch;
   const double synthetic_rate = opt.rate > 0 ? opt.rate : 100.0;
   uint64_t per_pass = 0;
   double period = 0.0;  // seconds from one pass's start to the next
@@ -122,9 +131,19 @@ void AddSendCommand(CLI::App& app, int* exit_code) {
   cmd->add_option("--rate", opt->rate, "datagrams per second (synthetic default 100; a log: its recorded pace)")
       ->type_name("HZ")
       ->check(InRange(0.1, 100000.0, "a rate in datagrams per second"));
-  cmd->add_option("--fingers", opt->fingers, "synthetic hand's fingers")
+  cmd->add_option("--fingers", opt->fingers, "synthetic hand's fingers (default 3; 5 with --whole-hand)")
       ->type_name("3|5")
       ->check(OneOf({"3", "5"}, "a finger count"));
+  cmd->add_flag("--whole-hand", opt->whole_hand,
+                "synthetic: a whole hand (palm and every phalanx, consistent gl blocks) in a power grasp of the box "
+                "(config/whole_hand_power_grasp.yaml); with --fingers 5 (or 3: thumb, index, middle)");
+  cmd->add_flag("--pinch", opt->pinch,
+                "--whole-hand: a precision pinch, the thumb's and the index's outer phalanges on two faces "
+                "(config/tracked_whole_hand.yaml)");
+  cmd->add_option("--hold", opt->hold, "--whole-hand: seconds the box is held lifted")
+      ->type_name("SECONDS")
+      ->capture_default_str()
+      ->check(InRange(0.0, 600.0, "a number of seconds"));
   cmd->add_option("--loop", opt->loops, "passes over the session")
       ->type_name("N")
       ->check(IntInRange(1, 1000000, "a number of passes"));
@@ -134,12 +153,14 @@ void AddSendCommand(CLI::App& app, int* exit_code) {
   SetHelpFooter(cmd,
                 {{"graspsim send --synthetic --port 5000", "the synthetic grasp at 100 Hz to 127.0.0.1:5000 (the "
                                                            "port of config/tracked_hand.yaml)"},
+                 {"graspsim send --synthetic --whole-hand --fingers 5 --port 5000",
+                  "a five-finger whole hand grasping the box with palm and phalanges (5.8 s)"},
                  {"graspsim send assets/demo_session.lcmlog --port 5000 --loop 3",
                   "a recorded session, three times at its recorded pace"}},
                 {{kExitOk, "every datagram was sent"},
                  {kExitFailure, "a datagram could not be sent"},
-                 {kExitUsage, "bad command line: neither or both of FILE.lcmlog and --synthetic, or a --host that "
-                              "cannot be used"},
+                 {kExitUsage, "bad command line: neither or both of FILE.lcmlog and --synthetic, --pinch without "
+                              "--synthetic --whole-hand, or a --host that cannot be used"},
                  {kExitBadInput, "the session log was refused or holds no datagrams"},
                  {kExitInterrupted, "stopped early by Ctrl-C or SIGTERM"}});
   cmd->callback([opt, exit_code]() { *exit_code = Send(*opt); });

@@ -17,7 +17,8 @@ struct BenchOptions {
   std::string knob;      ///< bench tradeoff: sweep only this knob when set
   std::vector<std::string> only;  ///< bench solver: only the problems whose name contains one of these
   double seconds = 0.0;  ///< bench realtime: session length (0: 60 s, --quick 2 s)
-  std::string scene;     ///< bench realtime: tracked scene (empty: config/tracked_paper_grasp.yaml)
+  std::string scene;     ///< bench realtime, step: the scene (empty: their default)
+  bool pinch = false;    ///< bench step, realtime: a tracked hand's synthetic input is the precision pinch
   int rt_priority = 50;  ///< bench realtime: SCHED_FIFO priority of the loop (0: normal scheduling)
   double spin_us = 0.0;  ///< bench realtime: busy-wait before each deadline
   int cpu = 0;           ///< bench realtime: the simulation's core, the render thread on the others (-1: no pinning)

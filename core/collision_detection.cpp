@@ -36,8 +36,8 @@ void DetectCollisions(World& w) {
       const Body& b = w.bodies[j];
       const bool a_moves = a.articulation >= 0, b_moves = b.articulation >= 0;
       if (!a_moves && !b_moves) continue;
-      // two fingertips of the same finger never touch
-      if (a.finger >= 0 && a.finger == b.finger) continue;
+      // two fingertips of one finger, segments of one tracked finger (World::CanTouch)
+      if (!w.CanTouch(i, j)) continue;
       ++w.profile.work.body_pairs;
       // at rest (sleep.cpp): the last step's contacts, moved with the poses
       if (PairAsleep(w, i, j)) {

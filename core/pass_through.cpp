@@ -83,7 +83,8 @@ bool FindPassThrough(World& w) {
     for (int j = i + 1; j < n; ++j) {
       const Body& b = w.bodies[j];
       if (!Moves(a) && !Moves(b)) continue;
-      if (a.finger >= 0 && a.finger == b.finger) continue;
+      // two fingertips of one finger, segments of one tracked finger (World::CanTouch)
+      if (!w.CanTouch(i, j)) continue;
       if (a.geometry.is_plane || b.geometry.is_plane) {
         const int plane = a.geometry.is_plane ? i : j, other = a.geometry.is_plane ? j : i;
         const Body& o = w.bodies[other];

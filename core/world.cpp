@@ -97,12 +97,26 @@ void World::SetFriction(int a, int b, double mu) {
   friction_[static_cast<size_t>(b) * n + a] = mu;
 }
 
+bool World::CanTouch(int a, int b) const {
+  const Body& ba = bodies[a];
+  const Body& bb = bodies[b];
+  if (ba.finger >= 0 && ba.finger == bb.finger) return false;
+  return no_touch_.empty() || !no_touch_[static_cast<size_t>(a) * bodies.size() + b];
+}
+
+void World::SetCanTouch(int a, int b, bool can) {
+  const size_t n = bodies.size();
+  if (no_touch_.size() != n * n) no_touch_.assign(n * n, 0);
+  no_touch_[a * n + b] = no_touch_[b * n + a] = can ? 0 : 1;
+}
+
 void World::Finalize() {
   const int n = static_cast<int>(bodies.size());
   if (friction_.size() != static_cast<size_t>(n) * n) {
     std::vector<double> old = friction_;
     friction_.assign(static_cast<size_t>(n) * n, params.default_friction);
   }
+  if (!no_touch_.empty() && no_touch_.size() != static_cast<size_t>(n) * n) no_touch_.clear();
   // articulations: 6 dof per free body, 4 per finger
   articulations.clear();
   int max_leaves = 1;

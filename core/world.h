@@ -366,6 +366,14 @@ class World {
   /// Friction coefficient of a body pair (default unless set).
   double Friction(int a, int b) const;
   void SetFriction(int a, int b, double mu);
+  /// Whether bodies a and b may touch: false for two fingertips of one finger
+  /// (Body::finger) and for a pair excluded by SetCanTouch (the segments of one
+  /// tracked finger, of a hand without self contact). A pair that may not touch is
+  /// left out of collision detection, the pass-through check and the starting-overlap check.
+  bool CanTouch(int a, int b) const;
+  /// Excludes (false) or readmits (true) the pair; call after the bodies are added
+  /// (Finalize keeps the exclusions while the number of bodies stays the same).
+  void SetCanTouch(int a, int b, bool can);
 
   /// Sizes every buffer and the articulations; call after adding bodies and fingers.
   void Finalize();
@@ -386,6 +394,7 @@ class World {
   double last_sweep_s_ = 0.0;  ///< the last sweeping solve's time per sweep (warm start included)
   bool last_solve_skipped_ = false;
   std::vector<double> friction_;
+  std::vector<uint8_t> no_touch_;  ///< 1 for the pairs SetCanTouch excluded, [a * bodies + b]; empty: none
   CollisionScratch collision_scratch;
   std::vector<PairCache> pair_caches;  ///< leaf-pair caches of the tree pairs, [i * bodies + j] for i < j
   NsgsScratch gs_scratch;

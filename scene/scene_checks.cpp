@@ -130,7 +130,8 @@ void Overlaps(const World& w, std::vector<IllPosed>* out) {
     for (int j = i + 1; j < n; ++j) {
       const Body& b = w.bodies[j];
       if (b.geometry.is_plane || (a.articulation < 0 && b.articulation < 0)) continue;
-      if (a.finger >= 0 && a.finger == b.finger) continue;
+      // two fingertips of one finger, segments of one tracked finger (World::CanTouch)
+      if (!w.CanTouch(i, j)) continue;
       // contacts too deep to project are not found: the core balls (Body::core_radius)
       // give a lower bound of the overlap that holds however deep it is
       const double cores = a.core_radius > 0.0 && b.core_radius > 0.0

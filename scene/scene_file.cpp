@@ -98,27 +98,6 @@ void ReadShape(MapReader& parent, const std::string& key, const std::string& dir
   m.Finish();
 }
 
-void ReadDeformation(MapReader& parent, DeformationParams* d) {
-  YAML::Node node = parent.Raw("deformation");
-  if (!node) return;
-  MapReader m(node, parent.file(), "deformation", parent.errors());
-  if (!m.ok()) return;
-  std::string model = "rigid";
-  m.Choice("model", &model, {"rigid", "gaussian", "boussinesq"}, true);
-  if (model == "gaussian") {
-    d->model = EDeformation::Gaussian;
-    m.Number("stiffness_N_m", &d->stiffness, 0, kInf, true, true);
-    m.Number("damping_N_s_m", &d->damping, 0, kInf, false);
-    m.Number("influence_radius_m", &d->influence_radius, 0, kBig, true, true);
-  } else if (model == "boussinesq") {
-    d->model = EDeformation::Boussinesq;
-    m.Number("young_modulus_Pa", &d->young_modulus, 0, kInf, true, true);
-    m.Number("poisson_ratio", &d->poisson_ratio, 0, 0.5, true, false, true);
-    m.Number("damping_N_s_m", &d->damping, 0, kInf, false);
-    m.Number("influence_radius_m", &d->influence_radius, 0, kBig, false, true);
-  }
-  m.Finish();
-}
 
 void ReadGeometry(MapReader& m, SceneBody* b) {
   if (b->spec.is_plane) return;
@@ -423,7 +402,9 @@ bool Parse(const YAML::Node& root, const std::string& file, Scene* s, std::vecto
   } else {
     m.Error("missing required key 'bodies'");
   }
-  if (YAML::Node n = m.Raw("hand")) {
+  if (YAML::Node n = m.Raw("hand"); n && n.IsMap() && static_cast<const YAML::Node&>(n)["model"]) {
+    ReadTrackedHand(n, file, s, errors);
+  } else if (n) {
     MapReader h(n, file, "hand", errors);
     Vec3 pos = Vec3::Zero(), rot = Vec3::Zero();
     h.Vector3("position_m", &pos, -kBig, kBig, false);
@@ -457,6 +438,7 @@ bool Parse(const YAML::Node& root, const std::string& file, Scene* s, std::vecto
     }
   }
   if (YAML::Node n = m.Raw("tracker")) ReadTrackerSection(n, file, s, errors);
+  if (s->tracked_hand.enabled) AddTrackedHandTargets(s, errors);
   if (YAML::Node n = m.Raw("camera")) ReadCameraSection(n, file, s, errors);
   m.Finish();
 
@@ -490,6 +472,28 @@ bool Parse(const YAML::Node& root, const std::string& file, Scene* s, std::vecto
 }
 
 }  // namespace
+
+void ReadDeformation(MapReader& parent, DeformationParams* d) {
+  YAML::Node node = parent.Raw("deformation");
+  if (!node) return;
+  MapReader m(node, parent.file(), "deformation", parent.errors());
+  if (!m.ok()) return;
+  std::string model = "rigid";
+  m.Choice("model", &model, {"rigid", "gaussian", "boussinesq"}, true);
+  if (model == "gaussian") {
+    d->model = EDeformation::Gaussian;
+    m.Number("stiffness_N_m", &d->stiffness, 0, kInf, true, true);
+    m.Number("damping_N_s_m", &d->damping, 0, kInf, false);
+    m.Number("influence_radius_m", &d->influence_radius, 0, kBig, true, true);
+  } else if (model == "boussinesq") {
+    d->model = EDeformation::Boussinesq;
+    m.Number("young_modulus_Pa", &d->young_modulus, 0, kInf, true, true);
+    m.Number("poisson_ratio", &d->poisson_ratio, 0, 0.5, true, false, true);
+    m.Number("damping_N_s_m", &d->damping, 0, kInf, false);
+    m.Number("influence_radius_m", &d->influence_radius, 0, kBig, false, true);
+  }
+  m.Finish();
+}
 
 bool LoadSceneFromString(const std::string& text, const std::string& virtual_path, Scene* out,
                          std::vector<SceneError>* errors) {
@@ -680,6 +684,7 @@ bool BuildScene(const Scene& scene, BuiltScene* out, std::vector<SceneError>* er
     }
     w.SetFriction(a, b, p.mu);
   }
+  ExcludeHandPairs(scene, w);
   const std::vector<const SceneBody*> scene_bodies = SceneBodies(scene);
   CheckBandwidths(scene_bodies, w, errors);
   CheckWellPosed(scene, scene_bodies, w, errors);

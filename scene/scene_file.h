@@ -52,6 +52,23 @@ struct SceneCamera {
   double fov_deg = 35.0;  ///< vertical
 };
 
+/// One segment of a tracked hand (`hand: {model: tracked}`, scene/scene_hand.cpp).
+struct SceneHandSegment {
+  std::string body;
+  int finger = -1;  ///< gl finger (0 thumb .. 4 little); -1: the palm
+  tracking::ESegment segment = tracking::ESegment::Palm;
+  Pose offset;      ///< body pose in the tracked frame (the palm's in the back of the hand's)
+};
+
+/// A whole hand that follows ART Fingertracking: its segment bodies are in Scene::bodies.
+struct SceneTrackedHand {
+  bool enabled = false;
+  bool right = true;
+  bool self_contact = false;  ///< segments of different fingers, and fingers and palm, may touch
+  std::vector<SceneHandSegment> segments;
+  SceneError at;              ///< the hand section
+};
+
 struct Scene {
   std::string file, name, description;
   SceneError timestep_at;  ///< where timestep_s was given
@@ -60,6 +77,7 @@ struct Scene {
   std::vector<SceneBody> bodies;
   Pose hand_pose;
   std::vector<SceneFinger> fingers;
+  SceneTrackedHand tracked_hand;
   struct Pair {
     std::string a, b;
     double mu;
@@ -92,6 +110,16 @@ struct BuiltScene {
 
 /// The `camera:` section (session/frame_recorder.cpp).
 void ReadCameraSection(const YAML::Node& node, const std::string& file, Scene* s, std::vector<SceneError>* errors);
+
+/// A body's `deformation:` key (scene_file.cpp): leaves *d as it is when absent.
+void ReadDeformation(MapReader& parent, DeformationParams* d);
+
+/// `hand: {model: tracked, ...}` (scene/scene_hand.cpp): appends the segment bodies.
+void ReadTrackedHand(const YAML::Node& node, const std::string& file, Scene* s, std::vector<SceneError>* errors);
+/// The tracker targets of the tracked hand's segments (after the tracker section).
+void AddTrackedHandTargets(Scene* s, std::vector<SceneError>* errors);
+/// The pairs of hand segments that may not touch (World::SetCanTouch), once the world is built.
+void ExcludeHandPairs(const Scene& scene, World& w);
 
 /// The `tracker:` section (scene/scene_tracker.cpp); reads after the bodies.
 void ReadTrackerSection(const YAML::Node& node, const std::string& file, Scene* s, std::vector<SceneError>* errors);

@@ -93,7 +93,8 @@ void ReadTrackerSection(const YAML::Node& node, const std::string& file, Scene* 
   }
   YAML::Node tips = m.Raw("fingertips");
   if (!tips) {
-    m.Error("missing required key 'fingertips' in tracker");
+    // a tracked hand's segments are targets of their own (AddTrackedHandTargets)
+    if (!s->tracked_hand.enabled) m.Error("missing required key 'fingertips' in tracker");
   } else if (!tips.IsSequence() || tips.size() < 1 || tips.size() > 5) {
     m.Error(tips, "'fingertips' must be a list of 1 to 5 fingertips");
   } else {

@@ -1,4 +1,5 @@
 // The render options and the render thread (the scene's camera section is read in scene_camera.cpp).
+#include <algorithm>
 #include "session/frame_recorder.h"
 
 #include <sched.h>
@@ -140,7 +141,7 @@ bool FrameRecorder::Start(const RenderOptions& opt, const BuiltScene& scene, std
     if (scene.has_tracker)
       for (const tracking::FingertipMap& f : scene.tracker.fingertips)
         if (f.body_index >= 0 && f.body_index < static_cast<int>(rig->bodies.size()))
-          rig->bodies[f.body_index].finger = f.finger;
+          rig->bodies[f.body_index].finger = std::max(f.finger, 0);  // a tracked hand's palm (-1) too
     rig_ = rig;
   }
   auto first = std::make_unique<WorldSnapshot>();

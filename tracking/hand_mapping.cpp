@@ -1,6 +1,10 @@
 #include "tracking/hand_mapping.h"
 
 #include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+#include "core/hand.h"
 
 namespace gs::tracking {
 
@@ -18,19 +22,54 @@ Pose RoomToWorld(const TrackerConfig& c, const Vec3& room_position, const Mat3& 
   return c.calibration * z_up;
 }
 
+namespace {
+
+// the tracked pose (room units) of a hand's target: its fingertip, the back of the
+// hand, or a phalanx of the chain the finger's block gives; false when it has none
+bool SegmentPose(const Hand& hand, const FingertipMap& m, const TrackerConfig& c, Vec3* p, Mat3* R) {
+  if (m.segment == ESegment::Palm) {
+    *p = hand.position;
+    *R = hand.rotation;
+    return true;
+  }
+  if (m.finger < 0 || m.finger >= hand.num_fingers) return false;
+  const HandFinger& f = hand.fingers[m.finger];
+  const Quat q(f.room_rotation);
+  if (!(q.norm() > 0.5)) return false;
+  if (m.segment == ESegment::Tip) {
+    *p = f.room_position;
+    *R = f.room_rotation;
+    return true;
+  }
+  TrackedFinger tf;
+  tf.tip = Pose{q.normalized().toRotationMatrix(), f.room_position};
+  tf.tip_radius = f.tip_radius;
+  for (int k = 0; k < kPhalanges; ++k) tf.length[k] = f.phalanx_length[k];
+  for (int k = 0; k < 2; ++k) tf.angle[k] = f.phalanx_angle[k] * (M_PI / 180.0);
+  if (FingerProblem(tf, c.min_phalanx_m / c.units_m, c.max_phalanx_m / c.units_m)) return false;
+  const EPhalanx k = m.segment == ESegment::Outer ? EPhalanx::Outer
+                     : m.segment == ESegment::Middle ? EPhalanx::Middle : EPhalanx::Inner;
+  const Pose seg = PhalanxCapsulePose(ChainFromTip(tf), k);
+  *p = seg.t;
+  *R = seg.R;
+  return true;
+}
+
+}  // namespace
+
 void MapFrame(const DTrackFrame& frame, const TrackerConfig& c, TargetSample* out) {
   out->frame = frame.frame;
   out->count = std::min(static_cast<int>(c.fingertips.size()), TargetSample::kMaxTips);
   const Hand* hand = c.source == ESource::Hand ? frame.FindHand(c.hand_id) : nullptr;
+  // a hand of the other side (a left glove where the scene has a right hand) drives nothing
+  if (hand && c.hand_side >= 0 && hand->right != (c.hand_side == 1)) hand = nullptr;
   for (int i = 0; i < out->count; ++i) {
     const FingertipMap& m = c.fingertips[i];
     out->valid[i] = false;
     Vec3 p;
     Mat3 R;
     if (c.source == ESource::Hand) {
-      if (!hand || !hand->tracked() || m.finger < 0 || m.finger >= hand->num_fingers) continue;
-      p = hand->fingers[m.finger].room_position;
-      R = hand->fingers[m.finger].room_rotation;
+      if (!hand || !hand->tracked() || !SegmentPose(*hand, m, c, &p, &R)) continue;
     } else {
       const Body6d* b = frame.FindBody(m.body_id);
       if (!b || !b->tracked()) continue;
@@ -50,7 +89,8 @@ ECarries JudgeFrame(const DTrackFrame& frame, int errors, const TrackerConfig& c
                     int* missing_code) {
   *missing_code = 0;
   if (frame.present == 0 && errors == 0) return ECarries::NotDTrack;
-  if (c.source == ESource::Hand && !frame.FindHand(c.hand_id)) {
+  const Hand* hand = c.source == ESource::Hand ? frame.FindHand(c.hand_id) : nullptr;
+  if (c.source == ESource::Hand && (!hand || (c.hand_side >= 0 && hand->right != (c.hand_side == 1)))) {
     *missing_code = -1;
     return ECarries::Missing;
   }
@@ -66,8 +106,17 @@ ECarries JudgeFrame(const DTrackFrame& frame, int errors, const TrackerConfig& c
 std::string MissingLabel(const TrackerConfig& c, int missing_code) {
   if (c.source == ESource::Hand) {
     const std::string hand = "hand " + std::to_string(c.hand_id);
-    if (missing_code < 0 || missing_code >= static_cast<int>(c.fingertips.size())) return hand;
-    return "finger " + std::to_string(c.fingertips[missing_code].finger) + " of " + hand;
+    if (missing_code < 0 || missing_code >= static_cast<int>(c.fingertips.size()))
+      return c.hand_side < 0 ? hand : hand + (c.hand_side == 1 ? " (right)" : " (left)");
+    const FingertipMap& m = c.fingertips[missing_code];
+    if (m.finger < 0) return "the palm of " + hand;
+    const std::string finger = "finger " + std::to_string(m.finger) + " of " + hand;
+    if (m.segment == ESegment::Tip) return finger;
+    // a phalanx has no target also when the finger's block cannot be a finger (MapFrame)
+    char range[96];
+    std::snprintf(range, sizeof(range), " (or its gl block with a phalanx length or radius outside %g to %g mm)",
+                  1e3 * c.min_phalanx_m, 1e3 * c.max_phalanx_m);
+    return finger + range;
   }
   if (missing_code < 0 || missing_code >= static_cast<int>(c.fingertips.size())) return "the tracked bodies";
   return "body " + std::to_string(c.fingertips[missing_code].body_id);

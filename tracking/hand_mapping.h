@@ -12,10 +12,11 @@
 
 namespace gs::tracking {
 
-/// Fingertip targets from one datagram: fixed size, so that it crosses the
+/// Fingertip targets from one datagram (or a whole hand's segment targets: the
+/// palm and three phalanges per finger): fixed size, so that it crosses the
 /// mailbox without allocating.
 struct TargetSample {
-  static constexpr int kMaxTips = 5;
+  static constexpr int kMaxTips = 16;
   int64_t arrival_ns = 0;     ///< receiver's steady clock (live) or recorded arrival (replay)
   uint64_t sequence = 0;      ///< datagram number at the receiver
   uint32_t frame = 0;         ///< DTrack frame counter (0 when the datagram had no fr line)
@@ -31,7 +32,11 @@ Mat3 UpAxisRotation(EUpAxis up);
 /// World pose of a tracked pose given in room units.
 Pose RoomToWorld(const TrackerConfig& c, const Vec3& room_position, const Mat3& room_rotation);
 
-/// Fills `out` (count, valid, pose) from a parsed frame.
+/// Fills `out` (count, valid, pose) from a parsed frame. A phalanx target is the
+/// capsule pose of that phalanx (core/hand.h) in the chain the gl finger gives; a
+/// finger whose block cannot be a finger (core FingerProblem: lengths outside
+/// [min_phalanx_m, max_phalanx_m], non-finite values) leaves its targets not valid,
+/// as does a hand of the wrong side (hand_side).
 void MapFrame(const DTrackFrame& frame, const TrackerConfig& c, TargetSample* out);
 
 /// What a datagram carries for the scene (tracker health, docs/tracking.md).

@@ -11,12 +11,8 @@ struct Key {
   double t, open, height;  // open: 1 open, 0 closed; height: mm above the grasp height
 };
 
-// reach down open, close, settle, lift, hold, release, rise
-void Phase(const SyntheticHand& h, double t, double* open, double* height) {
-  const Key keys[] = {{0.0, 1, h.reach_mm},        {0.2, 1, h.reach_mm},        {0.8, 1, 0.0},
-                      {1.1, 0, 0.0},               {1.3, 0, 0.0},               {1.9, 0, h.lift_mm},
-                      {2.3, 0, h.lift_mm},         {2.5, 1, h.lift_mm},         {h.duration_s, 1, h.reach_mm}};
-  const int n = sizeof(keys) / sizeof(keys[0]);
+// the open factor and height at time t, smoothstepped between keys
+void Interpolate(const Key* keys, int n, double t, double* open, double* height) {
   if (t <= keys[0].t) {
     *open = keys[0].open;
     *height = keys[0].height;
@@ -35,6 +31,34 @@ void Phase(const SyntheticHand& h, double t, double* open, double* height) {
   *height = keys[n - 1].height;
 }
 
+// reach down open, close, settle, lift, hold, release, rise
+void Phase(const SyntheticHand& h, double t, double* open, double* height) {
+  if (h.whole_hand) {
+    const double e = h.hold_s;
+    const Key keys[] = {{0.0, 1, h.reach_mm},      {0.2, 1, h.reach_mm},      {0.8, 1, 0.0},
+                        {1.2, 0, 0.0},             {1.4, 0, 0.0},             {2.0, 0, h.lift_mm},
+                        {2.0 + e, 0, h.lift_mm},   {2.3 + e, 1, h.lift_mm},   {2.8 + e, 1, h.reach_mm}};
+    Interpolate(keys, sizeof(keys) / sizeof(keys[0]), t, open, height);
+    return;
+  }
+  const Key keys[] = {{0.0, 1, h.reach_mm},        {0.2, 1, h.reach_mm},        {0.8, 1, 0.0},
+                      {1.1, 0, 0.0},               {1.3, 0, 0.0},               {1.9, 0, h.lift_mm},
+                      {2.3, 0, h.lift_mm},         {2.5, 1, h.lift_mm},         {h.duration_s, 1, h.reach_mm}};
+  Interpolate(keys, sizeof(keys) / sizeof(keys[0]), t, open, height);
+}
+
+// flexions (root, middle-inner, outer-middle) of a planar two-phalanx chain whose
+// middle joint reaches p (x, z of the root frame) and whose outer phalanx then
+// points at `outer_angle` from the root's x toward its z
+Vec3 ReachFlexions(const HandFingerModel& f, const Vec3& p, double outer_angle) {
+  const double li = f.length[2], lm = f.length[1];
+  const double d2 = p.x() * p.x() + p.z() * p.z();
+  const double c = std::clamp((d2 - li * li - lm * lm) / (2.0 * li * lm), -1.0, 1.0);
+  const double q1 = std::acos(c);
+  const double q0 = std::atan2(p.z(), p.x()) - std::atan2(lm * std::sin(q1), li + lm * std::cos(q1));
+  return Vec3(q0, q1, outer_angle - q0 - q1);
+}
+
 void AppendMatrix(std::string* s, const Mat3& R) {
   char buf[160];
   // column by column: b0 b1 b2 is the first column
@@ -44,6 +68,86 @@ void AppendMatrix(std::string* s, const Mat3& R) {
 }
 
 }  // namespace
+
+SyntheticHand SyntheticHand::WholeHand(int fingers, double hold_s) {
+  SyntheticHand h;
+  h.whole_hand = true;
+  h.fingers = fingers == 3 ? 3 : 5;
+  h.hold_s = hold_s;
+  h.duration_s = 2.8 + hold_s;
+  return h;
+}
+
+namespace {
+
+// where a whole-hand grasp puts the box and the thumb's middle joint, in the hand frame
+struct Grasp {
+  Vec3 box;                     ///< the box's centre
+  Vec3 thumb;                   ///< the thumb's middle joint, closed
+  double half = 0.0, squeeze = 0.0;
+  double Lid() const { return box.z() - half; }
+};
+
+// Power grasp: the lid 1 mm under the palm, the far face where the fingers' middle
+// joints (x = 9.5 cm) put their phalanges `squeeze` into it. Pinch: the lid 5 mm under
+// the palm, the box centred between the thumb's and the index's pads. The thumb's
+// middle joint lies in its plane (the root frame's x-z plane), `squeeze` into the near face.
+Grasp GraspGeometry(const HandModel& m, bool pinch, double half, double squeeze) {
+  Grasp g;
+  g.half = half;
+  g.squeeze = squeeze;
+  const double palm = m.palm.t.z() + 0.5 * m.palm_size.z();
+  g.box = pinch ? Vec3(0.05, 0.0, palm + 5e-3 + half)
+                : Vec3(0.095 - half - m.finger[1].radius + squeeze, 0.0, palm + 1e-3 + half);
+  const HandFingerModel& th = m.finger[0];
+  const double x = g.box.x() - half - th.radius + squeeze;
+  const Vec3 along = th.root.R.col(0);
+  const double y = th.root.t.y() + (x - th.root.t.x()) * along.y() / along.x();
+  if (pinch) g.box.y() = 0.5 * (y + m.finger[1].root.t.y());
+  g.thumb = Vec3(x, y, g.Lid() + (pinch ? 8e-3 : 4e-3));
+  return g;
+}
+
+// the four fingers hook over the far face; open, they stretch forward
+void PowerFingers(const HandModel& m, const Pose& hand, double open, TrackedFinger* out) {
+  const Vec3 closed(0.0, 0.5 * M_PI, 0.0), opened(0.0, 0.35, 0.15);
+  for (int f = 1; f < m.fingers; ++f) out[f] = PoseFinger(m, f, hand, open * opened + (1.0 - open) * closed);
+}
+
+// the index's outer phalanx on the far face, its middle joint 8 mm over the lid; the
+// other fingers stay stretched above the box
+void PinchFingers(const HandModel& m, const Pose& hand, const Grasp& g, double open, TrackedFinger* out) {
+  for (int f = 2; f < m.fingers; ++f) out[f] = PoseFinger(m, f, hand, Vec3(0.0, 0.2, 0.1));
+  const HandFingerModel& ix = m.finger[1];
+  const Vec3 closed(g.box.x() + g.half + ix.radius - g.squeeze, ix.root.t.y(), g.Lid() + 8e-3);
+  const Vec3 dip = closed + open * Vec3(0.02, 0.0, -0.004);
+  out[1] = PoseFinger(m, 1, hand, ReachFlexions(ix, ix.root.ApplyInverse(dip), (1.0 - open) * 0.5 * M_PI + open * 0.35));
+}
+
+// the thumb's middle joint on the near face, its outer phalanx down along it
+TrackedFinger Thumb(const HandModel& m, const Pose& hand, const Grasp& g, bool pinch, double open) {
+  const HandFingerModel& th = m.finger[0];
+  const Vec3 ip_open = pinch ? g.thumb + Vec3(-0.03, 0.0, -0.006) : Vec3(-0.015, 0.0, g.Lid() - 6e-3);
+  const Vec3 ip = open * ip_open + (1.0 - open) * g.thumb;
+  return PoseFinger(m, 0, hand, ReachFlexions(th, th.root.ApplyInverse(ip), (1.0 - open) * 0.5 * M_PI + open * 0.35));
+}
+
+}  // namespace
+
+void SyntheticHand::WholeHandPose(double t, Pose* hand, TrackedFinger* out) const {
+  double open = 0, height = 0;
+  Phase(*this, t, &open, &height);
+  const HandModel m = AverageAdultHand(fingers, true);
+  const Grasp g = GraspGeometry(m, pinch, 1e-3 * box_half_mm, 1e-3 * squeeze_mm);
+  // palm down, fingers along the room's +x, the box where the grasp wants it
+  hand->R = Eigen::AngleAxisd(M_PI, Vec3::UnitX()).toRotationMatrix();
+  hand->t = 1e-3 * box_center_mm + Vec3(0, 0, 1e-3 * height) - hand->R * g.box;
+  if (pinch)
+    PinchFingers(m, *hand, g, open, out);
+  else
+    PowerFingers(m, *hand, open, out);
+  out[0] = Thumb(m, *hand, g, pinch, open);
+}
 
 void SyntheticHand::Tips(double t, Vec3* tips) const {
   double open = 0, height = 0;
@@ -68,6 +172,34 @@ Pose SyntheticHand::HandPose(double t) const {
   return p;
 }
 
+namespace {
+
+// the gl line of a whole hand: the back of the hand and each finger's block, mm and degrees
+void AppendWholeHand(const SyntheticHand& h, double t, std::string* s) {
+  Pose hand;
+  TrackedFinger f[kHandMaxFingers];
+  h.WholeHandPose(t, &hand, f);
+  const int nf = h.fingers == 3 ? 3 : 5;
+  char buf[256];
+  std::snprintf(buf, sizeof(buf), "gl 1 [0 1.000 1 %d][%.3f %.3f %.3f]", nf, 1e3 * hand.t.x(), 1e3 * hand.t.y(),
+                1e3 * hand.t.z());
+  *s += buf;
+  AppendMatrix(s, hand.R);
+  for (int i = 0; i < nf; ++i) {
+    const Vec3 local = 1e3 * hand.ApplyInverse(f[i].tip.t);
+    std::snprintf(buf, sizeof(buf), " [%.3f %.3f %.3f]", local.x(), local.y(), local.z());
+    *s += buf;
+    AppendMatrix(s, hand.R.transpose() * f[i].tip.R);
+    const double deg = 180.0 / M_PI;
+    std::snprintf(buf, sizeof(buf), "[%.3f %.3f %.3f %.3f %.3f %.3f]", 1e3 * f[i].tip_radius, 1e3 * f[i].length[0],
+                  deg * f[i].angle[0], 1e3 * f[i].length[1], deg * f[i].angle[1], 1e3 * f[i].length[2]);
+    *s += buf;
+  }
+  *s += "\r\n";
+}
+
+}  // namespace
+
 std::string SyntheticHand::Datagram(double t, uint32_t frame) const {
   Vec3 tips[5];
   Tips(t, tips);
@@ -79,6 +211,10 @@ std::string SyntheticHand::Datagram(double t, uint32_t frame) const {
   std::snprintf(buf, sizeof(buf), "fr %u\r\nts %.6f\r\n6dcal 0\r\n6d 0\r\nglcal 1\r\n", frame,
                 std::fmod(43200.0 + t, 86400.0));
   s += buf;
+  if (whole_hand) {
+    AppendWholeHand(*this, t, &s);
+    return s;
+  }
   std::snprintf(buf, sizeof(buf), "gl 1 [0 1.000 1 %d][%.3f %.3f %.3f]", nf, hand.t.x(), hand.t.y(), hand.t.z());
   s += buf;
   AppendMatrix(&s, hand.R);
@@ -99,6 +235,19 @@ std::string SyntheticHand::Datagram(double t, uint32_t frame) const {
   }
   s += "\r\n";
   return s;
+}
+
+SyntheticHand SyntheticHandFor(const TrackerConfig& c) {
+  int fingers = 0;
+  bool whole = false;
+  for (const FingertipMap& f : c.fingertips) {
+    fingers = std::max(fingers, f.finger + 1);
+    whole |= f.segment != ESegment::Tip;
+  }
+  if (whole) return SyntheticHand::WholeHand(fingers, 3.0);
+  SyntheticHand h;
+  h.fingers = fingers > 3 ? 5 : 3;
+  return h;
 }
 
 }  // namespace gs::tracking

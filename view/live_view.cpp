@@ -95,7 +95,7 @@ bool LiveView::Start(const std::string& address, const app::BuiltScene& scene, s
     if (scene.has_tracker)  // tracked fingertips are fingertips, as in FrameRecorder
       for (const tracking::FingertipMap& f : scene.tracker.fingertips)
         if (f.body_index >= 0 && f.body_index < static_cast<int>(rig->bodies.size()))
-          rig->bodies[f.body_index].finger = f.finger;
+          rig->bodies[f.body_index].finger = std::max(f.finger, 0);  // a tracked hand's palm (-1) too
     rig_ = rig;
   }
   tracked_ = scene.tracked_body;

@@ -129,3 +129,52 @@ TEST(World, BlockOnInclineSticksBelowAndSlidesAboveTheFrictionAngle) {
 
 }  // namespace
 }  // namespace gs
+
+namespace gs {
+namespace {
+
+// two capsules meeting end to end like two phalanges at a joint, overlapping by 4 mm
+World JointPair() {
+  World w;
+  w.params.gravity = Vec3::Zero();
+  ShapeDesc cap;
+  cap.type = EShape::Capsule;
+  cap.radius = 0.008;
+  cap.half_length = 0.01;
+  DeformationParams rigid;
+  const Pose along_x{Eigen::AngleAxisd(0.5 * M_PI, Vec3::UnitY()).toRotationMatrix(), Vec3::Zero()};
+  AddBody(w, cap, 400, 50, 0.01, along_x, rigid);
+  AddBody(w, cap, 400, 50, 0.01, Pose{along_x.R, Vec3(0.032, 0, 0)}, rigid);
+  return w;
+}
+
+TEST(World, PairsExcludedBySetCanTouchNeitherCollideNorPush) {
+  World touching = JointPair();
+  touching.Finalize();
+  EXPECT_TRUE(touching.CanTouch(0, 1));
+  touching.Step();
+  EXPECT_GT(touching.profile.contacts, 0);
+  // the overlap pushes them apart
+  EXPECT_GT(touching.bodies[1].pose.t.x() - touching.bodies[0].pose.t.x(), 0.032);
+
+  World apart = JointPair();
+  apart.Finalize();
+  apart.SetCanTouch(1, 0, false);
+  EXPECT_FALSE(apart.CanTouch(0, 1));
+  for (int i = 0; i < 10; ++i) apart.Step();
+  EXPECT_EQ(apart.profile.contacts, 0);
+  EXPECT_EQ(apart.profile.work.body_pairs, 0);
+  EXPECT_EQ(apart.rejected_steps, 0);
+  EXPECT_EQ(apart.bodies[1].pose.t.x() - apart.bodies[0].pose.t.x(), 0.032);
+  // readmitted, and kept through a Finalize with the same bodies
+  apart.SetCanTouch(0, 1, true);
+  apart.SetCanTouch(0, 1, false);
+  apart.Finalize();
+  EXPECT_FALSE(apart.CanTouch(1, 0));
+  apart.SetCanTouch(0, 1, true);
+  apart.Step();
+  EXPECT_GT(apart.profile.contacts, 0);
+}
+
+}  // namespace
+}  // namespace gs

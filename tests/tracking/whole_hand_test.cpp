@@ -1,0 +1,458 @@
+// The whole tracked hand: the scene's `hand: {model: tracked}` (segment bodies,
+// contact exclusions, targets), the mapping of gl blocks to segment targets, bad
+// gl input, and the power grasp of config/whole_hand_power_grasp.yaml driven by
+// the synthetic whole hand.
+#include <gtest/gtest.h>
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "core/hand.h"
+#include "scene/scene_file.h"
+#include "session/tracked_sim.h"
+#include "tracking/dtrack_parser.h"
+#include "tracking/hand_mapping.h"
+#include "tracking/synthetic_hand.h"
+#include "test_util.h"
+
+namespace gs::tracking {
+namespace {
+
+const std::string kScene = std::string(GRASPSIM_SOURCE_DIR) + "/config/whole_hand_power_grasp.yaml";
+
+std::string SceneText() {
+  std::ifstream f(kScene);
+  std::stringstream s;
+  s << f.rdbuf();
+  return s.str();
+}
+
+int BodyIndex(const World& w, const std::string& name) {
+  for (size_t i = 0; i < w.bodies.size(); ++i)
+    if (w.bodies[i].name == name) return static_cast<int>(i);
+  ADD_FAILURE() << "no body " << name;
+  return 0;
+}
+
+bool Build(const std::string& text, app::BuiltScene* b, std::string* error) {
+  app::Scene scene;
+  std::vector<app::SceneError> errors;
+  if (!app::LoadSceneFromString(text, kScene, &scene, &errors)) {
+    for (const auto& e : errors) *error += e.Format() + "\n";
+    return false;
+  }
+  return app::BuildScene(scene, b, error);
+}
+
+std::string Replace(std::string s, const std::string& from, const std::string& to) {
+  const size_t at = s.find(from);
+  EXPECT_NE(at, std::string::npos) << from;
+  if (at != std::string::npos) s.replace(at, from.size(), to);
+  return s;
+}
+
+TEST(WholeHand, SceneMakesOneBodyPerSegmentAndKeepsTheHandsSegmentsApart) {
+  app::BuiltScene b;
+  std::string error;
+  ASSERT_TRUE(Build(SceneText(), &b, &error)) << error;
+  const World& w = b.world;
+  ASSERT_EQ(w.bodies.size(), 2u + 1u + 15u);  // table, box, palm, 5 x 3 phalanges
+  EXPECT_EQ(b.world.bodies[b.tracked_body].name, "box");
+  // the phalanges are capsules of the average hand's lengths and radii
+  const HandModel m = AverageAdultHand(5, true);
+  const Body& middle_inner = w.bodies[BodyIndex(w, "middle_inner")];
+  EXPECT_EQ(middle_inner.geometry.shape.type, EShape::Capsule);
+  EXPECT_DOUBLE_EQ(middle_inner.geometry.shape.half_length, 0.5 * m.finger[2].length[2]);
+  EXPECT_DOUBLE_EQ(middle_inner.geometry.shape.radius, m.finger[2].radius);
+  // one target per segment, on the gl finger of its name
+  ASSERT_EQ(b.tracker.fingertips.size(), 16u);
+  for (const FingertipMap& f : b.tracker.fingertips) {
+    EXPECT_EQ(f.body_index, BodyIndex(w, f.body));
+    if (f.body.rfind("ring_", 0) == 0) {
+      EXPECT_EQ(f.finger, 3);
+    }
+  }
+  EXPECT_EQ(b.tracker.hand_side, 1);
+  const int io = BodyIndex(w, "index_outer"), im = BodyIndex(w, "index_middle"), mo = BodyIndex(w, "middle_outer");
+  const int ii = BodyIndex(w, "index_inner"), palm = BodyIndex(w, "palm"), box = BodyIndex(w, "box");
+  EXPECT_FALSE(w.CanTouch(io, im));
+  EXPECT_FALSE(w.CanTouch(io, mo));  // no self contact
+  EXPECT_FALSE(w.CanTouch(palm, mo));
+  EXPECT_TRUE(w.CanTouch(io, box));
+  EXPECT_TRUE(w.CanTouch(palm, box));
+
+  app::BuiltScene self;
+  // (with self contact the straight thumb would start inside the palm: the check refuses that)
+  const std::string self_text = Replace(SceneText(), "self_contact: false", "self_contact: true");
+  EXPECT_FALSE(Build(self_text, &self, &error));
+  EXPECT_NE(error.find("bodies 'palm' and 'thumb_outer' start overlapping"), std::string::npos) << error;
+  error.clear();
+  app::BuiltScene self_bent;
+  ASSERT_TRUE(Build(Replace(self_text, "start_flexion_rad: [0,", "start_flexion_rad: [0.6,"), &self_bent, &error)) << error;
+  const World& sw = self_bent.world;
+  EXPECT_FALSE(sw.CanTouch(io, im));    // one finger's segments never
+  EXPECT_FALSE(sw.CanTouch(ii, palm));  // nor an inner phalanx and the palm, at the knuckle
+  EXPECT_TRUE(sw.CanTouch(io, mo));
+  EXPECT_TRUE(sw.CanTouch(palm, mo));
+  EXPECT_TRUE(sw.CanTouch(palm, BodyIndex(sw, "thumb_outer")));
+  EXPECT_FALSE(sw.CanTouch(palm, BodyIndex(sw, "thumb_middle")));
+}
+
+TEST(WholeHand, LeftHandIsTheRightOneMirrored) {
+  app::BuiltScene right, left;
+  std::string error;
+  ASSERT_TRUE(Build(SceneText(), &right, &error)) << error;
+  ASSERT_TRUE(Build(Replace(SceneText(), "side: right", "side: left"), &left, &error)) << error;
+  EXPECT_EQ(left.tracker.hand_side, 0);
+  // the hand frame is palm down at y = 0 in both: every segment mirrored in y
+  for (const char* name : {"palm", "thumb_inner", "thumb_outer", "index_middle", "little_outer"}) {
+    const Vec3 r = right.world.bodies[BodyIndex(right.world, name)].pose.t;
+    const Vec3 l = left.world.bodies[BodyIndex(left.world, name)].pose.t;
+    EXPECT_NEAR(l.x(), r.x(), 1e-12) << name;
+    EXPECT_NEAR(l.y(), -r.y(), 1e-12) << name;
+    EXPECT_NEAR(l.z(), r.z(), 1e-12) << name;
+  }
+  EXPECT_GT(std::abs(right.world.bodies[BodyIndex(right.world, "thumb_inner")].pose.t.y()), 0.02);
+}
+
+TEST(WholeHand, ThreeFingerHandHasThumbIndexAndMiddle) {
+  app::BuiltScene b;
+  std::string error;
+  ASSERT_TRUE(Build(Replace(SceneText(), "fingers: 5 ", "fingers: 3 "), &b, &error)) << error;
+  EXPECT_EQ(b.world.bodies.size(), 2u + 1u + 9u);
+  for (const Body& body : b.world.bodies) EXPECT_EQ(body.name.find("ring"), std::string::npos);
+  BodyIndex(b.world, "middle_outer");
+}
+
+TEST(WholeHand, BadHandSectionsAreRefusedWithTheirLine) {
+  app::Scene scene;
+  std::vector<app::SceneError> errors;
+  EXPECT_FALSE(app::LoadSceneFromString(Replace(SceneText(), "fingers: 5 ", "fingers: 4 "), kScene, &scene, &errors));
+  ASSERT_FALSE(errors.empty());
+  EXPECT_NE(errors[0].message.find("'fingers' must be 5"), std::string::npos) << errors[0].Format();
+  EXPECT_GT(errors[0].line, 0);
+  errors.clear();
+  app::Scene no_tracker;
+  const std::string text = SceneText();
+  EXPECT_FALSE(app::LoadSceneFromString(text.substr(0, text.find("tracker:")), kScene, &no_tracker, &errors));
+  ASSERT_FALSE(errors.empty());
+  EXPECT_NE(errors[0].message.find("needs a 'tracker:' section"), std::string::npos) << errors[0].Format();
+  errors.clear();
+  app::Scene bad_key;
+  EXPECT_FALSE(app::LoadSceneFromString(Replace(text, "self_contact: false", "self_contacts: false"), kScene,
+                                        &bad_key, &errors));
+  ASSERT_FALSE(errors.empty());
+  EXPECT_GT(errors[0].line, 0);
+}
+
+// a parsed synthetic whole-hand datagram and the scene's tracker
+struct Mapped {
+  app::BuiltScene scene;
+  SyntheticHand hand = SyntheticHand::WholeHand(5, 3.0);
+  DTrackFrame frame;
+  TargetSample sample;
+  void Parse(double t) {
+    DTrackParser parser;
+    const std::string d = hand.Datagram(t, 1);
+    ASSERT_EQ(parser.Parse(d.data(), d.size(), &frame), 0);
+  }
+  void Map() { MapFrame(frame, scene.tracker, &sample); }
+  int Target(const std::string& body) const {
+    for (size_t i = 0; i < scene.tracker.fingertips.size(); ++i)
+      if (scene.tracker.fingertips[i].body == body) return static_cast<int>(i);
+    ADD_FAILURE() << body;
+    return 0;
+  }
+};
+
+TEST(WholeHand, SegmentTargetsAreThePhalangesOfTheSentHand) {
+  Mapped m;
+  std::string error;
+  ASSERT_TRUE(Build(SceneText(), &m.scene, &error)) << error;
+  const double t = 1.5;  // closed on the box
+  m.Parse(t);
+  m.Map();
+  ASSERT_EQ(m.sample.count, 16);
+  Pose hand;
+  TrackedFinger f[5];
+  m.hand.WholeHandPose(t, &hand, f);
+  const char* names[5] = {"thumb", "index", "middle", "ring", "little"};
+  const char* phalanx[3] = {"outer", "middle", "inner"};
+  for (int i = 0; i < 5; ++i) {
+    const FingerChain c = ChainFromTip(f[i]);
+    for (int k = 0; k < 3; ++k) {
+      const int target = m.Target(std::string(names[i]) + "_" + phalanx[k]);
+      ASSERT_TRUE(m.sample.valid[target]);
+      const Pose want = PhalanxCapsulePose(c, static_cast<EPhalanx>(k));
+      // the datagram rounds to 1 um and 1e-3 degrees
+      EXPECT_LT((m.sample.pose[target].t - want.t).norm(), 1e-5) << names[i] << " " << phalanx[k];
+      EXPECT_LT((m.sample.pose[target].R - want.R).norm(), 1e-4) << names[i] << " " << phalanx[k];
+    }
+  }
+  const int palm = m.Target("palm");
+  ASSERT_TRUE(m.sample.valid[palm]);
+  EXPECT_LT((m.sample.pose[palm].t - hand.Apply(Vec3(0, 0, 0.0125))).norm(), 1e-5);
+  // closed: the fingers' middle phalanges stand against the box's far face, the thumb's outer against the near one
+  EXPECT_NEAR(m.sample.pose[m.Target("index_middle")].t.x(), 0.03 + 0.008 - 0.004, 1e-4);
+  EXPECT_NEAR(m.sample.pose[m.Target("thumb_outer")].t.x(), -(0.03 + 0.0095 - 0.004), 1e-3);
+}
+
+TEST(WholeHand, SyntheticPinchPutsTheThumbAndIndexPadsIntoTwoFaces) {
+  Mapped m;
+  std::string error;
+  ASSERT_TRUE(Build(SceneText(), &m.scene, &error)) << error;
+  m.hand.pinch = true;
+  m.Parse(1.3);  // closed, not lifted yet
+  m.Map();
+  // the outer phalanges stand 4 mm into the far (+x) and near (-x) faces of the box at the origin
+  const Pose index = m.sample.pose[m.Target("index_outer")], thumb = m.sample.pose[m.Target("thumb_outer")];
+  EXPECT_NEAR(index.t.x(), 0.03 + 0.008 - 0.004, 1e-4);
+  EXPECT_NEAR(thumb.t.x(), -(0.03 + 0.0095 - 0.004), 1e-4);
+  // upright (a capsule's axis is its z), and the pinch axis passes over the box's centre
+  EXPECT_GT(std::abs(index.R.col(2).z()), 0.99);
+  EXPECT_GT(std::abs(thumb.R.col(2).z()), 0.99);
+  EXPECT_NEAR(index.t.y() + thumb.t.y(), 0.0, 1e-4);
+  // the palm and the other fingers stay clear of the lid (z = 6 cm)
+  EXPECT_GT(m.sample.pose[m.Target("palm")].t.z() - 0.0125, 0.06 + 0.004);
+  for (const char* name : {"middle_outer", "middle_middle", "ring_outer", "little_outer"}) {
+    const Vec3 c = m.sample.pose[m.Target(name)].t;
+    const Vec3 nearest(std::clamp(c.x(), -0.03, 0.03), std::clamp(c.y(), -0.03, 0.03), std::clamp(c.z(), 0.0, 0.06));
+    EXPECT_GT((c - nearest).norm(), 0.008) << name;  // the centre is farther from the box than the capsule's radius
+  }
+}
+
+int ValidCount(const TargetSample& s) {
+  int n = 0;
+  for (int i = 0; i < s.count; ++i) n += s.valid[i];
+  return n;
+}
+
+void ExpectFinite(const TargetSample& s) {
+  for (int i = 0; i < s.count; ++i)
+    EXPECT_TRUE(!s.valid[i] || (s.pose[i].t.allFinite() && s.pose[i].R.allFinite())) << i;
+}
+
+TEST(WholeHand, BadFingerBlocksLeaveTheirSegmentsInvalidAndNeverNaN) {
+  Mapped m;
+  std::string error;
+  ASSERT_TRUE(Build(SceneText(), &m.scene, &error)) << error;
+  m.Parse(1.5);
+  const DTrackFrame good = m.frame;
+  int code = 0;
+  // a three-finger glove where the scene has five: ring and little are missing
+  m.frame.hands[0].num_fingers = 3;
+  m.Map();
+  EXPECT_EQ(ValidCount(m.sample), 16 - 6);
+  EXPECT_FALSE(m.sample.valid[m.Target("ring_outer")]);
+  EXPECT_TRUE(m.sample.valid[m.Target("middle_outer")]);
+  EXPECT_EQ(JudgeFrame(m.frame, 0, m.scene.tracker, m.sample, &code), ECarries::Missing);
+  EXPECT_EQ(MissingLabel(m.scene.tracker, code),
+            "finger 3 of hand 0 (or its gl block with a phalanx length or radius outside 5 to 120 mm)");
+  // phalanx lengths of 0 and of 1 m, a NaN angle: that finger's segments only
+  for (double bad : {0.0, 1000.0, std::nan("")}) {
+    m.frame = good;
+    m.frame.hands[0].fingers[1].phalanx_length[1] = bad;
+    if (std::isnan(bad)) m.frame.hands[0].fingers[1].phalanx_angle[0] = bad;
+    m.Map();
+    EXPECT_EQ(ValidCount(m.sample), 16 - 3) << bad;
+    EXPECT_FALSE(m.sample.valid[m.Target("index_inner")]);
+    EXPECT_FALSE(m.sample.valid[m.Target("index_outer")]);
+    EXPECT_EQ(JudgeFrame(m.frame, 0, m.scene.tracker, m.sample, &code), ECarries::Missing);
+    EXPECT_EQ(MissingLabel(m.scene.tracker, code).rfind("finger 1 of hand 0 (or its gl block", 0), 0u);
+    ExpectFinite(m.sample);
+  }
+  // a left hand where the scene has a right one: nothing
+  m.frame = good;
+  m.frame.hands[0].right = false;
+  m.Map();
+  EXPECT_EQ(ValidCount(m.sample), 0);
+  EXPECT_EQ(JudgeFrame(m.frame, 0, m.scene.tracker, m.sample, &code), ECarries::Missing);
+  EXPECT_EQ(code, -1);
+  EXPECT_EQ(MissingLabel(m.scene.tracker, code), "hand 0 (right)");
+}
+
+// steps the scene on the synthetic whole hand's datagrams at 100 Hz, in simulated time
+class Session {
+ public:
+  explicit Session(const std::string& text, bool pinch = false) : hand_(SyntheticHand::WholeHand(5, 3.0)) {
+    hand_.pinch = pinch;
+    const std::string path =
+        std::filesystem::temp_directory_path() / ("graspsim_whole_hand_" + std::to_string(getpid()) + ".yaml");
+    std::ofstream(path) << text;
+    std::string error;
+    ok_ = sim_.Load(path, &error);
+    EXPECT_TRUE(ok_) << error;
+    std::filesystem::remove(path);
+  }
+  bool ok() const { return ok_; }
+  app::TrackedSim& sim() { return sim_; }
+  /// from now on the datagrams carry this many fingers (a finger lost mid-grasp)
+  void SendFingers(int n) { sent_fingers_ = n; }
+  void RunTo(double t_end) {
+    World& w = sim_.world();
+    while (w.time < t_end - 0.5 * w.params.dt) {
+      if (w.time >= next_ - 0.5 * w.params.dt) {
+        std::string d = hand_.Datagram(next_, frame_++);
+        if (sent_fingers_ < 5) d = CutFingers(d, sent_fingers_);
+        TargetSample s;
+        sim_.Ingest(d.data(), d.size(), false, &s);
+        sim_.Push(s);
+        next_ += 0.01;
+      }
+      sim_.Step();
+    }
+  }
+
+ private:
+  // the gl line with only the first n fingers (their blocks are three each)
+  static std::string CutFingers(const std::string& d, int n) {
+    std::string s = d;
+    const size_t gl = s.find("gl 1 [0 1.000 1 5]");
+    s.replace(gl, 18, "gl 1 [0 1.000 1 " + std::to_string(n) + "]");
+    size_t at = s.find("] [", gl);  // the first finger's block starts after the hand's matrix
+    for (int f = 0; f < n && at != std::string::npos; ++f) at = s.find("] [", at + 1);
+    if (at != std::string::npos) s = s.substr(0, at + 1) + "\r\n";
+    return s;
+  }
+  app::TrackedSim sim_;
+  SyntheticHand hand_;
+  bool ok_ = false;
+  int sent_fingers_ = 5;
+  double next_ = 0.0;
+  uint32_t frame_ = 1;
+};
+
+bool AllFinite(const World& w) {
+  for (const Body& b : w.bodies)
+    if (!b.pose.t.allFinite() || !b.pose.R.allFinite() || !b.velocity.allFinite()) return false;
+  return true;
+}
+
+TEST(WholeHand, FingersLostMidGraspHoldThenReleaseWithoutNaN) {
+  Session s(SceneText());
+  ASSERT_TRUE(s.ok());
+  const auto& tips = s.sim().config().fingertips;
+  const auto target = [&](const char* body) {
+    for (size_t i = 0; i < tips.size(); ++i)
+      if (tips[i].body == body) return static_cast<int>(i);
+    return -1;
+  };
+  const int ring = target("ring_outer"), little = target("little_inner"), index = target("index_outer");
+  ASSERT_GE(ring, 0);
+  // closed on the box and lifting it, the glove falls back to three fingers
+  s.RunTo(1.6);
+  EXPECT_EQ(s.sim().follower().state(ring), ETipState::Tracking);
+  s.SendFingers(3);
+  s.RunTo(1.75);
+  EXPECT_EQ(s.sim().follower().state(ring), ETipState::Lost);
+  EXPECT_EQ(s.sim().follower().state(little), ETipState::Lost);
+  const Pose held = s.sim().follower().target(ring);
+  s.RunTo(1.95);
+  EXPECT_EQ(s.sim().follower().target(ring).t, held.t);  // held at the last pose
+  s.RunTo(2.15);  // lost_timeout_s 0.5 after the last sample with them (1.59 s)
+  EXPECT_EQ(s.sim().follower().state(ring), ETipState::Released);
+  EXPECT_EQ(s.sim().follower().state(index), ETipState::Tracking);
+  EXPECT_TRUE(AllFinite(s.sim().world()));
+  EXPECT_EQ(s.sim().world().rejected_steps, 0);
+  // the released ring and little let go (at mu 0.5 the box then slips down the
+  // remaining fingers), and nothing passes through the table
+  const World& w = s.sim().world();
+  EXPECT_GT(w.bodies[s.sim().scene().tracked_body].pose.t.z(), 0.029);
+  // tracked again
+  s.SendFingers(5);
+  s.RunTo(2.25);
+  EXPECT_EQ(s.sim().follower().state(ring), ETipState::Tracking);
+}
+
+// the box's height through the synthetic hold (t = 2.0..5.0 s: lifted 5 cm at 2.0 s)
+struct Hold {
+  double lifted = 0.0, lowest = 1e9, highest = -1e9;
+  int64_t rejected = 0;
+  bool finite = true;
+};
+
+Hold RunGrasp(const std::string& text, double end, bool pinch = false) {
+  Session s(text, pinch);
+  Hold h;
+  if (!s.ok()) return h;
+  const World& w = s.sim().world();
+  const int box = s.sim().scene().tracked_body;
+  s.RunTo(2.1);
+  h.lifted = w.bodies[box].pose.t.z();
+  while (w.time < end - 0.5e-3) {
+    s.RunTo(w.time + 0.05);
+    h.lowest = std::min(h.lowest, w.bodies[box].pose.t.z());
+    h.highest = std::max(h.highest, w.bodies[box].pose.t.z());
+    h.finite &= AllFinite(w);
+  }
+  h.rejected = w.rejected_steps;
+  return h;
+}
+
+TEST(WholeHand, PowerGraspHoldsTheBoxThroughAThreeSecondHoldAtFrictionHalf) {
+  const Hold h = RunGrasp(SceneText(), 5.0);
+  // lifted most of the hand's 5 cm, from resting at 30.2 mm
+  EXPECT_GT(h.lifted, 0.0302 + 0.04);
+  // and held there: the box neither slips down nor is thrown
+  EXPECT_GT(h.lowest, h.lifted - 0.003);
+  EXPECT_LT(h.highest, h.lifted + 0.003);
+  EXPECT_TRUE(h.finite);
+  EXPECT_EQ(h.rejected, 0);
+}
+
+TEST(WholeHand, PowerGraspCannotLiftTheBoxAtFrictionOneTenth) {
+  // the same grasp with too little friction: the fingers slide up the faces
+  const Hold h = RunGrasp(Replace(SceneText(), "default: 0.5", "default: 0.1"), 2.2);
+  EXPECT_LT(h.lifted, 0.0302 + 0.01);
+  EXPECT_TRUE(h.finite);
+}
+
+std::string PinchText() {
+  std::ifstream f(std::string(GRASPSIM_SOURCE_DIR) + "/config/tracked_whole_hand.yaml");
+  std::stringstream s;
+  s << f.rdbuf();
+  return s.str();
+}
+
+TEST(WholeHand, PrecisionPinchHoldsTheBoxAtFrictionPointEightAndNotAtPointFour) {
+  const Hold h = RunGrasp(PinchText(), 5.0, true);
+  EXPECT_GT(h.lifted, 0.0302 + 0.04);
+  EXPECT_GT(h.lowest, h.lifted - 0.003);
+  EXPECT_LT(h.highest, h.lifted + 0.003);
+  EXPECT_TRUE(h.finite);
+  EXPECT_EQ(h.rejected, 0);
+  // two pads only: half the friction does not lift it
+  const Hold slip = RunGrasp(Replace(PinchText(), "default: 0.8", "default: 0.4"), 2.2, true);
+  EXPECT_LT(slip.lifted, 0.0302 + 0.01);
+  EXPECT_TRUE(slip.finite);
+}
+
+TEST(WholeHand, ShippedPinchSessionReplaysBitIdenticallyAndLifts) {
+  const std::string dir = test::TempDir("whole_hand_replay");
+  uint64_t hashes[2] = {0, 0};
+  std::string summary, tips;
+  for (int run = 0; run < 2; ++run) {
+    const std::string out = dir + "/replay" + std::to_string(run);
+    const test::Result r = test::Run(test::Binary() + " replay config/tracked_whole_hand.yaml " +
+                                     GRASPSIM_SOURCE_DIR + "/assets/tracked_whole_hand.lcmlog --duration 2.2 --out " + out);
+    ASSERT_EQ(r.code, 0) << r.output;
+    for (const char* f : {"trajectory.csv", "fingertips.csv", "tracker.csv", "summary.json"})
+      hashes[run] = hashes[run] * 31 + test::Hash(test::ReadFile(out + "/" + f));
+    summary = test::ReadFile(out + "/summary.json");
+    tips = test::ReadFile(out + "/fingertips.csv");
+  }
+  EXPECT_EQ(hashes[0], hashes[1]) << "replays differ";
+  EXPECT_NE(summary.find("\"lifted\":true"), std::string::npos) << summary;
+  EXPECT_NE(summary.find("\"rejected_steps\":0"), std::string::npos) << summary;
+  // every segment's state, target and coupling force
+  for (const char* col : {"palm_state", "thumb_outer_force_x_N", "little_inner_target_z_m"})
+    EXPECT_NE(tips.find(col), std::string::npos) << col;
+}
+
+}  // namespace
+}  // namespace gs::tracking
