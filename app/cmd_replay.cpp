@@ -46,28 +46,29 @@ void Row(std::ostream& o, double v) {
 // The output files of --out, written as the replay goes (an interrupted replay
 // keeps every row it made); without --out the streams discard what they get.
 struct ReplayFiles {
-  std::unique_ptr<std::ostream> traj, tips, frames;
+  std::unique_ptr<std::ostream> traj, contacts, tips, frames;
   bool Open(const std::string& dir, std::string* error) {
     auto open = [&](const char* name) -> std::unique_ptr<std::ostream> {
       if (dir.empty()) return std::make_unique<std::ostream>(nullptr);
       return std::make_unique<std::ofstream>(std::filesystem::path(dir) / name, std::ios::binary);
     };
     traj = open("trajectory.csv");
+    contacts = open("contacts.csv");
     tips = open("fingertips.csv");
     frames = open("tracker.csv");
-    if (!dir.empty() && (!*traj || !*tips || !*frames)) {
-      *error = "--out " + dir + ": cannot write trajectory.csv, fingertips.csv and tracker.csv there";
+    if (!dir.empty() && (!*traj || !*contacts || !*tips || !*frames)) {
+      *error = "--out " + dir + ": cannot write trajectory.csv, contacts.csv, fingertips.csv and tracker.csv there";
       return false;
     }
     return true;
   }
   bool Close(const std::string& dir, std::string* error) {
     if (dir.empty()) return true;
-    for (auto* f : {traj.get(), tips.get(), frames.get()}) {
+    for (auto* f : {traj.get(), contacts.get(), tips.get(), frames.get()}) {
       auto* file = static_cast<std::ofstream*>(f);
       file->close();
       if (file->fail()) {
-        *error = "--out " + dir + ": cannot write trajectory.csv, fingertips.csv or tracker.csv";
+        *error = "--out " + dir + ": cannot write trajectory.csv, contacts.csv, fingertips.csv or tracker.csv";
         return false;
       }
     }
@@ -140,9 +141,11 @@ int Replay(const ReplayOptions& opt) {
     return kExitFailure;
   }
   std::ostream& traj = *files.traj;
+  std::ostream& contacts = *files.contacts;
   std::ostream& tips = *files.tips;
   std::ostream& frames = *files.frames;
   WriteTrajectoryHeader(traj, w);
+  WriteContactsHeader(contacts);
   const auto& fmap = sim->config().fingertips;
   tips << "time_s";
   for (const auto& f : fmap)
@@ -224,6 +227,7 @@ int Replay(const ReplayOptions& opt) {
     }
     if ((step + 1) % 10 == 0) {
       WriteTrajectoryRow(traj, w);
+      WriteContactsRows(contacts, w);
       tips << w.time;
       for (int i = 0; i < sim->follower().size(); ++i) {
         const int b = sim->follower().body(i);
@@ -295,7 +299,7 @@ int Replay(const ReplayOptions& opt) {
       return kExitFailure;
     }
     if (!opt.json)
-      std::printf("replay: wrote %s/trajectory.csv, fingertips.csv, tracker.csv, summary.json\n", opt.out.c_str());
+      std::printf("replay: wrote %s/trajectory.csv, contacts.csv, fingertips.csv, tracker.csv, summary.json\n", opt.out.c_str());
   }
   if (opt.json) std::printf("%s\n", js.str().c_str());
   if (interrupted) return kExitInterrupted;
@@ -314,7 +318,7 @@ void AddReplayCommand(CLI::App& app, int* exit_code) {
       ->type_name("[SCENE.yaml] FILE.lcmlog")
       ->required()
       ->expected(1, 2);
-  cmd->add_option("--out", opt->out, "write trajectory.csv, fingertips.csv, tracker.csv and summary.json into DIR")
+  cmd->add_option("--out", opt->out, "write trajectory.csv, contacts.csv (per body pair, e.g. each hand segment on the object), fingertips.csv, tracker.csv and summary.json into DIR")
       ->type_name("DIR");
   cmd->add_flag("--realtime", opt->realtime, "at the recorded pace instead of as fast as possible");
   cmd->add_option("--duration", opt->duration, "simulated seconds (default: the session plus --tail)")

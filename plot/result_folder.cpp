@@ -315,9 +315,7 @@ bool AddContactFigures(const Folder& f, ResultPlots* plots, std::string* error) 
     AddCountFigures(f, cs, plots);
     return true;
   }
-  const std::string why = f.Replay() ? "a replay folder has no contacts.csv (replay writes the fingertips' forces, "
-                                       "not the contacts)"
-                                     : "no contacts.csv in " + f.dir;
+  const std::string why = "no contacts.csv in " + f.dir;
   if (f.fingertips) {
     if (!AddGripFromFingertips(f, plots, error)) return false;
   } else {

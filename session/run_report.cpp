@@ -173,15 +173,16 @@ bool StepFiles::Open(const std::string& dir, const World& w, int every, std::str
   WriteTimingsHeader(timings_);
   WriteTrajectoryHeader(trajectory_, w);
   WriteTrajectoryRow(trajectory_, w);  // the start, step 0
-  contacts_ << "step,t_s,body_a,body_b,contacts,stick,slip,separating,fn_N,ft_N,penetration_before_m,"
-               "penetration_after_m\n";
+  WriteContactsHeader(contacts_);
   return true;
 }
 
-void StepFiles::AfterStep(const World& w) {
-  WriteTimingsRow(timings_, w);
-  if (w.step_count % every_ != 0) return;
-  WriteTrajectoryRow(trajectory_, w);
+void WriteContactsHeader(std::ostream& o) {
+  o << "step,t_s,body_a,body_b,contacts,stick,slip,separating,fn_N,ft_N,penetration_before_m,"
+       "penetration_after_m\n";
+}
+
+void WriteContactsRows(std::ostream& o, const World& w) {
   if (w.profile.rejected) return;
   std::vector<PairTotals> pairs;
   for (const ContactRow& row : w.rows) {
@@ -194,13 +195,20 @@ void StepFiles::AfterStep(const World& w) {
     return x.a != y.a ? x.a < y.a : x.b < y.b;
   });
   for (const PairTotals& p : pairs) {
-    contacts_ << w.step_count;
-    Cell(contacts_, w.time, ",%.6f");
-    contacts_ << "," << w.bodies[p.a].name << "," << w.bodies[p.b].name << "," << p.contacts << "," << p.stick << ","
-              << p.slide << "," << p.separate;
-    for (double v : {p.fn, p.ft, std::max(0.0, p.before), std::max(0.0, p.after)}) Cell(contacts_, v, ",%.9g");
-    contacts_ << "\n";
+    o << w.step_count;
+    Cell(o, w.time, ",%.6f");
+    o << "," << w.bodies[p.a].name << "," << w.bodies[p.b].name << "," << p.contacts << "," << p.stick << ","
+      << p.slide << "," << p.separate;
+    for (double v : {p.fn, p.ft, std::max(0.0, p.before), std::max(0.0, p.after)}) Cell(o, v, ",%.9g");
+    o << "\n";
   }
+}
+
+void StepFiles::AfterStep(const World& w) {
+  WriteTimingsRow(timings_, w);
+  if (w.step_count % every_ != 0) return;
+  WriteTrajectoryRow(trajectory_, w);
+  WriteContactsRows(contacts_, w);
 }
 
 void StepFiles::Flush() {

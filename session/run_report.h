@@ -35,6 +35,12 @@ bool WriteSummaryJson(const std::string& dir, const std::string& summary_json, s
 void WriteTrajectoryHeader(std::ostream& o, const World& w);
 void WriteTrajectoryRow(std::ostream& o, const World& w);
 
+/// contacts.csv of run and replay: one line per step and touching body pair
+/// (contacts, stick, slip, separating, normal and tangential force in N,
+/// penetration before and after the solve in m); no line for a rejected step.
+void WriteContactsHeader(std::ostream& o);
+void WriteContactsRows(std::ostream& o, const World& w);
+
 /// Normal gap of a contact after the last step's solve (m; negative: penetration):
 /// q + W r, read through the bodies as the solver does, less the overlap held back.
 double PostSolveGap(const World& w, const ContactRow& row);

@@ -3,7 +3,13 @@
 // replays write bit-identical files.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <string>
+#include <vector>
 #include <thread>
 
 #include "test_util.h"
@@ -56,6 +62,36 @@ TEST(SessionsEndToEnd, SendRecordReplayGraspsLiftsAndIsDeterministic) {
   EXPECT_GE(applied, 190);
   EXPECT_LE(applied, 210);
   EXPECT_NE(summary[0].find("\"rejected_steps\":0"), std::string::npos) << summary[0];
+}
+
+// replay --out writes contacts.csv: one line per step and body pair, so that a whole
+// hand's grasp gives each segment's force on the box
+TEST(SessionsEndToEnd, WholeHandReplayWritesEachSegmentsForceOnTheBox) {
+  const std::string out = test::TempDir("whole_hand_replay");
+  const test::Result r = test::Run(Binary() + " replay config/whole_hand_power_grasp.yaml "
+                                   "assets/whole_hand_power_grasp.lcmlog --duration 2.5 --quiet --out " + out);
+  ASSERT_EQ(r.code, 0) << r.output;
+  std::ifstream f(out + "/contacts.csv");
+  std::string line;
+  ASSERT_TRUE(std::getline(f, line));
+  EXPECT_EQ(line, "step,t_s,body_a,body_b,contacts,stick,slip,separating,fn_N,ft_N,penetration_before_m,"
+                  "penetration_after_m");
+  std::map<std::string, double> most;  // the largest normal force of each body on the box
+  while (std::getline(f, line)) {
+    std::vector<std::string> cells;
+    std::stringstream ss(line);
+    for (std::string c; std::getline(ss, c, ',');) cells.push_back(c);
+    ASSERT_EQ(cells.size(), 12u) << line;
+    const std::string other = cells[2] == "box" ? cells[3] : cells[3] == "box" ? cells[2] : "";
+    if (!other.empty()) most[other] = std::max(most[other], std::stod(cells[8]));
+  }
+  // the thumb and the four fingers' two outer phalanges all press on the box by 2.5 s
+  for (const char* finger : {"thumb", "index", "middle", "ring", "little"})
+    for (const char* segment : {"_outer", "_middle"}) {
+      const std::string name = std::string(finger) + segment;
+      EXPECT_GT(most[name], 0.01) << name;
+    }
+  EXPECT_GT(most["table"], 0.0);
 }
 
 TEST(SessionsEndToEnd, ReplayRefusesBadInputWithAMessage) {
