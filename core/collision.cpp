@@ -597,8 +597,17 @@ PairGeometry PairNormal(const SphereTree& tq, int lq, const Pose& q_to_s, const 
 
 // projects the control points of the query body onto the surface body's MLS surface
 // for every query leaf that has a coupled leaf in best[]; consumes `touched`
+// The edge rule of CollisionParams::edge_rule: the query's leaf lq is on a flat face
+// (its patch trusted, its normals within 3 degrees) and the foot's leaf ls on the
+// surface is shaped by an edge (its patch untrusted)
+bool FlatOnEdge(const SphereTree& tq, int lq, const SphereTree& ts, int ls) {
+  return std::isfinite(tq.leaf_patch_error(lq)) && tq.leaf_flatness(lq) > kFlatCos &&
+         !std::isfinite(ts.leaf_patch_error(ls));
+}
+
 void ProjectSide(int id_q, const SphereTree& tq, const Pose& q_to_s, int id_s, const CollisionShape& surf,
-                 const Pose& pose_s, const CollisionParams& params, bool emit, bool rigid_pair, std::vector<int>* best,
+                 const Pose& pose_s, const CollisionParams& params, bool emit, bool two_pass, bool rigid_pair,
+                 std::vector<int>* best,
                  std::vector<double>* best_d2, std::vector<double>* lift, std::vector<int>* touched,
                  CollisionScratch* s, ContactBuffer* out, CollisionStats* stats) {
   const SphereTree& ts = *surf.tree;
@@ -636,6 +645,11 @@ void ProjectSide(int id_q, const SphereTree& tq, const Pose& q_to_s, int id_s, c
     if (params.curvature_rejection && !WithinCoupledBorder(ts, ls, proj.point)) {
       ++stats->rejected;
       ++stats->out_of_border;
+      continue;
+    }
+    if (two_pass && params.edge_rule && FlatOnEdge(tq, lq, ts, coupled)) {
+      ++stats->rejected;
+      ++stats->on_edges;
       continue;
     }
     const double gap = (x - proj.point).dot(proj.normal);  // eq. 4: negative inside
@@ -785,6 +799,7 @@ void CollisionStats::Add(const CollisionStats& o) {
   projections += o.projections;
   fits += o.fits;
   rejected += o.rejected;
+  on_edges += o.on_edges;
   out_of_border += o.out_of_border;
   culled += o.culled;
   contacts += o.contacts;
@@ -914,10 +929,11 @@ void CollidePair(int id_a, const CollisionShape& a, const Pose& pose_a, int id_b
   const bool emit_a = a.emits_contacts || !b.emits_contacts;
   const bool emit_b = b.emits_contacts || !a.emits_contacts;
   const bool rigid = !a.deforms && !b.deforms;
-  ProjectSide(id_a, *a.tree, a_in_b, id_b, b, pose_b, params, emit_a, rigid, &s->best_a, &s->best_a_d2, &s->lift_a,
-              &s->touched_a, s, out, &local);
-  ProjectSide(id_b, *b.tree, b_in_a, id_a, a, pose_a, params, emit_b, rigid, &s->best_b, &s->best_b_d2, &s->lift_b,
-              &s->touched_b, s, out, &local);
+  const bool two_pass = emit_a && emit_b;
+  ProjectSide(id_a, *a.tree, a_in_b, id_b, b, pose_b, params, emit_a, two_pass, rigid, &s->best_a, &s->best_a_d2,
+              &s->lift_a, &s->touched_a, s, out, &local);
+  ProjectSide(id_b, *b.tree, b_in_a, id_a, a, pose_a, params, emit_b, two_pass, rigid, &s->best_b, &s->best_b_d2,
+              &s->lift_b, &s->touched_b, s, out, &local);
   const auto t2 = Clock::now();
   local.traverse_s += Seconds(t0, t1);
   local.project_s += Seconds(t1, t2);

@@ -47,6 +47,15 @@ struct CollisionParams {
   /// border is rejected (the paper's curvature rejection); false: kept (for
   /// measuring what the rule does).
   bool curvature_rejection = true;
+  /// Two-pass contact (both bodies of a pair emit): a point of a flat face of one
+  /// surface (its leaf's patch trusted, its normals within 3 degrees) is not
+  /// projected onto the other where that surface's MLS is shaped by a sharp edge
+  /// (the foot's leaf's patch untrusted): there the quadric overshoots the face (a
+  /// lip up to 0.09 spacing below it) or rounds the edge, and the edge's own points,
+  /// projected onto the flat face, carry that contact in the other pass. Curved
+  /// query points (a fingertip on a box's edge) keep theirs. false: kept (for
+  /// measuring the rule).
+  bool edge_rule = true;
   /// Leaf-pair cache (PairCache): the margin, as a fraction of the two trees' mean
   /// leaf radii, by which the cached traversal reaches beyond the contact threshold.
   /// The cache serves the following steps while the trees' relative motion plus
@@ -93,6 +102,7 @@ struct CollisionStats {
   int fits = 0;           ///< MLS fits (projection iterations) done
   int rejected = 0;       ///< projections rejected (left the border, failed, or a sideways deep foot)
   int out_of_border = 0;  ///< of rejected: feet outside the coupled leaf's radius + r_eps (curvature rejection)
+  int on_edges = 0;       ///< of rejected: smooth points on an edge's MLS, left to the edge's own points (edge_rule)
   int culled = 0;         ///< leaves skipped: above every overlapping leaf's slab by more than delta_eps
   int contacts = 0;       ///< contacts added
   int dropped = 0;        ///< contacts lost because the buffer was full

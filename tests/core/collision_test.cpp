@@ -676,6 +676,54 @@ namespace {
 // coupled, not of the leaf the projection's foot ended in (which holds the foot by
 // construction: the rule could never fire). A query above leaf B, projected while
 // coupled to a leaf A far from B, slides out of A's border and is rejected.
+// Two-pass box on box: the MLS quadric of a cube's bottom face overshoots below it
+// along its edges (a lip up to 0.09 spacing), and the slab's points under the rim,
+// projected onto it, held the cube up on its rim (it rocked, and slid 14% fast on an
+// incline). The edge rule leaves those contacts to the rim's own points on the
+// slab's flat face: resting flat at gap 0, no slab point is deeper than a few um in
+// the cube, and the cube still stands on its whole base, corners included.
+TEST(Collision, EdgeRuleLeavesAnEdgesContactsToItsOwnPoints) {
+  ShapeDesc cube, slab;
+  cube.type = slab.type = EShape::Box;
+  cube.half_extents = Vec3::Constant(0.02);
+  slab.half_extents = Vec3(0.08, 0.04, 0.005);
+  auto fc = Make(cube, 3000, 400, 21);
+  auto fs = Make(slab, 24000, 3000, 22);
+  CollisionScratch scratch;
+  scratch.Reserve(3000, 200000);
+  ContactBuffer contacts;
+  contacts.Reserve(200000);
+  const Pose pc = Pose::Translation(Vec3(0.01, 0.003, 0.02));  // base on z = 0
+  const Pose ps = Pose::Translation(Vec3(0, 0, -0.005));       // top face at z = 0
+  double deepest[2] = {0, 0};
+  int on_edges[2] = {0, 0};
+  for (const bool rule : {false, true}) {
+    CollisionParams params;
+    params.edge_rule = rule;
+    contacts.Clear();
+    CollisionStats stats;
+    CollidePair(0, fc->shape(), pc, 1, fs->shape(), ps, params, &scratch, &contacts, &stats);
+    Vec3 lo = Vec3::Constant(1), hi = Vec3::Constant(-1);
+    for (const Contact& c : contacts.items) {
+      // the slab's points on the cube's surface
+      if (c.body[0] == 1) deepest[rule] = std::max(deepest[rule], -c.gap);
+      if (c.body[0] != 0) continue;  // the cube's own points: where its base is supported
+      lo = lo.cwiseMin(c.anchor[0]);
+      hi = hi.cwiseMax(c.anchor[0]);
+    }
+    on_edges[rule] = stats.on_edges;
+    // the base is supported out to its corners
+    EXPECT_LT(lo.x(), -0.018) << rule;
+    EXPECT_LT(lo.y(), -0.018) << rule;
+    EXPECT_GT(hi.x(), 0.018) << rule;
+    EXPECT_GT(hi.y(), 0.018) << rule;
+  }
+  EXPECT_EQ(on_edges[false], 0);
+  EXPECT_GT(on_edges[true], 0);
+  EXPECT_GT(deepest[false], 50e-6) << "the lip, without the rule";
+  EXPECT_LT(deepest[true], 10e-6) << "the slab's points, with the rule";
+}
+
 TEST(Collision, CurvatureRejectionReadsTheCoupledLeafsBorder) {
   auto fs = Make(Ball(0.01), 3000, 400, 21);
   const SphereTree& t = fs->geom.tree;
