@@ -39,15 +39,9 @@ const ValidationResult* Find(const std::vector<ValidationResult>& v, const std::
 
 TEST(Validation, InclineSticksBelowAndSlidesAboveTheFrictionAngle) {
   const auto v = ValidateIncline(Quick());
-  // A box on a box slab in two-pass contact holds below atan(mu) but slides faster
-  // than g (sin a - mu cos a) above (full run: 13.6% at 1.01 atan(mu), 3.9% at 1.10;
-  // quick run 3.9 times at 1.01): less grip than Coulomb's law gives, never more
-  // (docs/collision.md, "Still weak"). `graspsim validate incline` reports those
-  // as FAIL; below, two-pass is held to sticking and to adding no grip.
-  std::vector<ValidationResult> checked;
-  for (const ValidationResult& r : v)
-    if (r.name.rfind("incline_slab", 0) != 0 || r.contact_mode != "two-pass") checked.push_back(r);
-  ExpectAllPass(checked);
+  // every case, the box slab in two-pass contact included (it slid 3.9 times too fast
+  // at 1.01 atan(mu) in the quick run before the edge rule, docs/collision.md)
+  ExpectAllPass(v);
   // both sides of atan(mu), two mu, the analytic plane and a slab in both contact modes
   for (const char* mu : {"0.4", "0.8"}) {
     const ValidationResult* stick = Find(v, std::string("incline_plane_mu") + mu + "_0.99", "");
@@ -65,16 +59,11 @@ TEST(Validation, InclineSticksBelowAndSlidesAboveTheFrictionAngle) {
   const ValidationResult* slide = Find(v, "incline_slab_mu0.4_1.01", "one-pass");
   EXPECT_LT(stick->error, 1e-6) << stick->detail;
   EXPECT_LT(slide->error, 0.05) << slide->detail;
-  // two-pass: sticks at 0.99 atan(mu); at 1.01 it slides at least as fast as
-  // Coulomb's law says (it was held there: grip from tilted normals at the edges)
+  // two-pass: sticks at 0.99 atan(mu), slides at 1.01 at g (sin a - mu cos a)
   const ValidationResult* stick2 = Find(v, "incline_slab_mu0.4_0.99", "two-pass");
   const ValidationResult* slide2 = Find(v, "incline_slab_mu0.4_1.01", "two-pass");
   EXPECT_LT(stick2->error, 1e-6) << stick2->detail;
-  const double expected = 9.81 * (std::sin(1.01 * std::atan(0.4)) - 0.4 * std::cos(1.01 * std::atan(0.4)));
-  const size_t at = slide2->detail.find("acceleration ");
-  ASSERT_NE(at, std::string::npos) << slide2->detail;
-  const double accel = std::stod(slide2->detail.substr(at + 13));
-  EXPECT_GT(accel, 0.95 * expected) << slide2->detail;
+  EXPECT_LT(slide2->error, 0.05) << slide2->detail;
 }
 
 TEST(Validation, HertzExponentRadiusAndDepthAgainstTheExactSphere) {

@@ -68,8 +68,9 @@ TEST(SessionsEndToEnd, SendRecordReplayGraspsLiftsAndIsDeterministic) {
 // hand's grasp gives each segment's force on the box
 TEST(SessionsEndToEnd, WholeHandReplayWritesEachSegmentsForceOnTheBox) {
   const std::string out = test::TempDir("whole_hand_replay");
-  const test::Result r = test::Run(Binary() + " replay config/whole_hand_power_grasp.yaml "
-                                   "assets/whole_hand_power_grasp.lcmlog --duration 2.5 --quiet --out " + out);
+  const std::string src = GRASPSIM_SOURCE_DIR;
+  const test::Result r = test::Run(Binary() + " replay " + src + "/config/whole_hand_power_grasp.yaml " + src +
+                                   "/assets/whole_hand_power_grasp.lcmlog --duration 2.5 --quiet --out " + out);
   ASSERT_EQ(r.code, 0) << r.output;
   std::ifstream f(out + "/contacts.csv");
   std::string line;
