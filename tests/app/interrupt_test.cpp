@@ -25,7 +25,7 @@
 
 extern char** environ;
 
-#include "shell.h"
+#include "../shell.h"
 
 namespace {
 

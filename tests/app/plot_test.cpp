@@ -29,7 +29,7 @@
 
 #include "plot/result_plots.h"
 
-#include "shell.h"
+#include "../shell.h"
 
 namespace {
 

@@ -25,7 +25,7 @@
 #include <stb/stb_image.h>
 #pragma GCC diagnostic pop
 
-#include "shell.h"
+#include "../shell.h"
 
 namespace {
 

@@ -16,7 +16,7 @@
 #include <string>
 #include <vector>
 
-#include "shell.h"
+#include "../shell.h"
 
 namespace {
 

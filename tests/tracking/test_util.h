@@ -18,6 +18,8 @@
 #include <string>
 #include <vector>
 
+#include "../shell.h"
+
 extern char** environ;
 
 namespace gs::tracking::test {
@@ -44,23 +46,10 @@ inline std::string TempDir(const std::string& name) {
   return p.string();
 }
 
-struct Result {
-  int code = -1;
-  std::string output;
-};
+using Result = ::gs::test::ShellResult;
 
-/// Runs a shell command line, stdout and stderr captured.
-inline Result Run(const std::string& cmd) {
-  Result r;
-  FILE* p = popen((cmd + " 2>&1").c_str(), "r");
-  if (!p) return r;
-  char buf[4096];
-  size_t n;
-  while ((n = fread(buf, 1, sizeof(buf), p)) > 0) r.output.append(buf, n);
-  const int status = pclose(p);
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
-}
+/// Runs a shell command line, stdout and stderr captured (exit status, or 128 + signal).
+inline Result Run(const std::string& cmd) { return ::gs::test::Sh(cmd); }
 
 /// A process started in the background; Wait() collects its output.
 class Background {

@@ -1,4 +1,4 @@
-// Runs a shell command line for the app tests and returns its exit status and
+// Runs a shell command line for the tests (app, tracking, view) and returns its exit status and
 // everything it printed (stdout and stderr together).
 #pragma once
 
