@@ -175,16 +175,9 @@ NsgsResult SolveNormalsOnly(WorldDelassus& op, Vec3* r, const NsgsParams& p) {
 // difference. Never with a time budget (a factorisation does not fit in a paced
 // step), and at most the steps WorldParams::newton_max_work allows; this path allocates (the steady
 // state of a converging step never reaches it).
-// Newton steps the continuation may take on n contacts (WorldParams::newton_max_work)
-int NewtonStepsAllowed(const WorldParams& wp, int n) {
-  const double m = 3.0 * n;
-  const double per_step = (2.0 / 3.0) * m * m * m;
-  return static_cast<int>(std::min<double>(wp.newton_max_steps, std::floor(wp.newton_max_work / per_step)));
-}
-
 void ContinueWithNewton(World& w, WorldDelassus& op, const NsgsParams& params, NsgsResult* res) {
   const int n = op.NumContacts();
-  const int steps = n > 0 ? NewtonStepsAllowed(w.params, n) : 0;
+  const int steps = NewtonStepsAllowed(w.params, n);
   if (steps <= 0 || params.time_budget_s > 0.0) return;
   for (int c = 0; c < n; ++c) w.rows[c].r = w.solve_r[c];
   FcProblem p;
@@ -232,6 +225,13 @@ void ContinueWithNewton(World& w, WorldDelassus& op, const NsgsParams& params, N
 }
 
 }  // namespace
+
+int NewtonStepsAllowed(const WorldParams& wp, int n) {
+  if (n <= 0) return 0;
+  const double m = 3.0 * n;
+  const double per_step = (2.0 / 3.0) * m * m * m;
+  return static_cast<int>(std::min<double>(wp.newton_max_steps, std::floor(wp.newton_max_work / per_step)));
+}
 
 // what gravity moves a free body in one step
 double StepGapScale(const WorldParams& wp) {

@@ -465,6 +465,9 @@ void SolveContacts(World& w);
 /// The scaled measure's gap for the step (NsgsParams::gap_scale): |g| dt^2
 /// (9.81 m/s^2 when the scene has no gravity).
 double StepGapScale(const WorldParams& wp);
+/// Newton steps the step's continuation may take on n contacts: newton_max_steps,
+/// and no more than newton_max_work allows at (2/3)(3n)^3 per step.
+int NewtonStepsAllowed(const WorldParams& wp, int n);
 void ConstrainedMotion(World& w);
 /// Marks the step as rejected (undone by ConstrainedMotion); the first reason is kept.
 void MarkRejected(World& w, const char* reason);

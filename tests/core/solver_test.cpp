@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <random>
 
+#include "core/world.h"
 #include "core/fc_families.h"
 #include "core/fc_problem.h"
 #include "core/local_solver.h"
@@ -84,6 +85,23 @@ TEST(Nsgs, ConvergesOnRandomRigidProblemsAndReportsTheTrueError) {
 // Conjugate directions that stop paying are dropped: on a pile of 400 boxes (1,617
 // contacts) they took the estimate to 7e-5, then cycled at 1e-4..7e-4 to the
 // 20,000-sweep cap (error 3.1e-4); plain sweeps from there converge
+// The step's Newton continuation is bounded by a fixed amount of work, the same on
+// every machine: every step it may take up to about 100 contacts, fewer above, none
+// from 382 on (a 951-contact replay step had taken 4-5 s of dense factorisations)
+TEST(Newton, TheStepsContinuationIsBoundedByWork) {
+  WorldParams wp;
+  EXPECT_EQ(NewtonStepsAllowed(wp, 0), 0);
+  EXPECT_EQ(NewtonStepsAllowed(wp, 8), wp.newton_max_steps);
+  EXPECT_EQ(NewtonStepsAllowed(wp, 100), wp.newton_max_steps);
+  EXPECT_EQ(NewtonStepsAllowed(wp, 150), 16);
+  EXPECT_EQ(NewtonStepsAllowed(wp, 300), 2);
+  EXPECT_EQ(NewtonStepsAllowed(wp, 381), 1);
+  EXPECT_EQ(NewtonStepsAllowed(wp, 382), 0);
+  EXPECT_EQ(NewtonStepsAllowed(wp, 951), 0);
+  wp.newton_max_steps = 0;  // off
+  EXPECT_EQ(NewtonStepsAllowed(wp, 8), 0);
+}
+
 TEST(Nsgs, MomentumThatStopsPayingIsDropped) {
   const FcProblem p = PileProblem(400, 0.3, 1.0, 1);
   FcSolveParams sp;
