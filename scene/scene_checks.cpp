@@ -9,6 +9,8 @@ namespace gs::app {
 namespace {
 
 constexpr double kNever = std::numeric_limits<double>::infinity();
+// the largest ratio of an emitting body's control spacing to a Boussinesq surface's in one-pass contact
+constexpr double kOnePassSpacingRatio = 1.4;
 
 // smallest leaf radius of a body's tree (m); 0 for a plane
 double SmallestLeaf(const Body& b) {
@@ -151,6 +153,45 @@ void Overlaps(const World& w, std::vector<IllPosed>* out) {
   }
 }
 
+// Control-point spacing (m): the side of the surface patch each control point stands for.
+double ControlSpacing(const Body& b) {
+  const size_t n = b.geometry.tree.control_points().size();
+  return n > 0 ? std::sqrt(b.geometry.area / static_cast<double>(n)) : 0.0;
+}
+
+// In one-pass contact only the emitting body's control points touch the other body's
+// surface. On a Boussinesq surface (a 1/r kernel) each contact presses a patch of the
+// surface's spacing, and between the emitter's points the surface is free to bulge up
+// into it: with the emitter's points farther apart than the surface's the contact is too
+// soft (docs/collision.md, "One-pass contact on a Boussinesq surface": a rigid sphere
+// 2 % deep at 1.2x, 8 % at 1.7x, 18 % at 2x). Gaussian kernels are smooth at their
+// influence radius and do not see the sampling.
+void OnePassSampling(const World& w, std::vector<IllPosed>* out) {
+  const int n = static_cast<int>(w.bodies.size());
+  for (int e = 0; e < n; ++e) {
+    const Body& emitter = w.bodies[e];
+    if (emitter.geometry.is_plane || !emitter.emits_contacts) continue;
+    for (int s = 0; s < n; ++s) {
+      const Body& surface = w.bodies[s];
+      if (s == e || surface.geometry.is_plane || surface.emits_contacts) continue;
+      if (surface.deform.params().model != EDeformation::Boussinesq || !surface.deform.enabled()) continue;
+      if ((emitter.articulation < 0 && surface.articulation < 0) || !w.CanTouch(e, s)) continue;
+      const double se = ControlSpacing(emitter), ss = surface.deform.spacing();
+      if (!(se > kOnePassSpacingRatio * ss)) continue;
+      const double needed = std::ceil(emitter.geometry.area / std::pow(kOnePassSpacingRatio * ss, 2.0));
+      char msg[900];
+      std::snprintf(msg, sizeof msg,
+                    "body '%s' touches the Boussinesq surface of '%s' in one-pass contact (contact_points: false on "
+                    "'%s'), but its control points are %.3g mm apart against that surface's %.3g mm: between them the "
+                    "surface bulges into it and the contact comes out too soft (%.2gx the spacing; at most %.1fx is "
+                    "resolved). Give '%s' control_points >= %.0f, or set contact_points: true on '%s'",
+                    emitter.name.c_str(), surface.name.c_str(), surface.name.c_str(), 1e3 * se, 1e3 * ss, se / ss,
+                    kOnePassSpacingRatio, emitter.name.c_str(), needed, surface.name.c_str());
+      out->push_back({IllPosed::ESite::Sampling, e, s, msg});
+    }
+  }
+}
+
 }  // namespace
 
 double LongestTimeStep(const Body& b, double g) { return LongestStep(b, g, 0.5 * SmallestLeaf(b)); }
@@ -159,6 +200,7 @@ std::vector<IllPosed> FindIllPosed(const World& w) {
   std::vector<IllPosed> out;
   TimeStep(w, &out);
   Overlaps(w, &out);
+  OnePassSampling(w, &out);
   return out;
 }
 

@@ -14,7 +14,10 @@
 //    that lie inside them, Body::core_radius, for overlaps too deep to project):
 //    the same wrong-side projections push them apart in random directions
 //    (a body overlapping an analytic plane is fine: it is pushed out at
-//    WorldParams::max_push_out_speed).
+//    WorldParams::max_push_out_speed);
+//  - one-pass contact on a Boussinesq surface by a body whose control points are
+//    more than 1.4 times farther apart than the surface's: the surface bulges
+//    between them and the contact is too soft (docs/collision.md).
 #pragma once
 
 #include <string>
@@ -26,9 +29,9 @@ namespace gs::app {
 
 /// One problem of a finalized world; `body` (and `other` for an overlap) index w.bodies.
 struct IllPosed {
-  enum class ESite { TimeStep, Overlap };
+  enum class ESite { TimeStep, Overlap, Sampling };
   ESite site = ESite::TimeStep;
-  int body = -1, other = -1;
+  int body = -1, other = -1;  ///< Sampling: `body` emits contacts onto `other`
   std::string message;
 };
 

@@ -619,7 +619,9 @@ void CheckBandwidths(const std::vector<const SceneBody*>& scene_bodies, const Wo
 void CheckWellPosed(const Scene& scene, const std::vector<const SceneBody*>& scene_bodies, const World& w,
                     std::vector<SceneError>* errors) {
   for (const IllPosed& p : FindIllPosed(w)) {
-    const SceneError& at = p.site == IllPosed::ESite::TimeStep ? scene.timestep_at : scene_bodies[p.other]->position_at;
+    const SceneError& at = p.site == IllPosed::ESite::TimeStep  ? scene.timestep_at
+                           : p.site == IllPosed::ESite::Sampling ? scene_bodies[p.body]->at
+                                                                 : scene_bodies[p.other]->position_at;
     errors->push_back(With(at, p.message));
   }
   const std::string why = WellPosedError(w);

@@ -99,6 +99,43 @@ TEST(SceneFile, WrongTypesRangesAndIllPosedValues) {
 // kMinimal with `extra` appended to the ball's mapping
 std::string WithBall(const std::string& extra) { return std::string(kMinimal) + extra; }
 
+// kMinimal with a fixed Boussinesq pad under the ball: `pad_cps` control points, one-pass
+// (`pad_emits` false) or two-pass, and the ball's control points `ball_cps`
+std::string WithPad(int pad_cps, bool pad_emits, int ball_cps) {
+  std::string t = std::string(kMinimal).replace(std::string(kMinimal).find("points: 500"), 11, "points: 1600");
+  t.replace(t.find("control_points: 60"), 18, "control_points: " + std::to_string(ball_cps));
+  return t + "  - name: pad\n    shape: {type: box, size_m: [0.04, 0.04, 0.01]}\n    motion: fixed\n"
+             "    position_m: [0, 0, -0.03]\n    points: 4000\n    control_points: " +
+         std::to_string(pad_cps) + "\n    contact_points: " + (pad_emits ? "true" : "false") +
+         "\n    deformation: {model: boussinesq, young_modulus_Pa: 1e5, poisson_ratio: 0.45}\n";
+}
+
+// one-pass contact on a Boussinesq surface by a body with sparser control points: the
+// surface bulges between them (a rigid sphere 18 % too deep at twice the spacing)
+TEST(SceneFile, OnePassOnABoussinesqSurfaceNeedsPointsAsDenseAsItsOwn) {
+  Scene s;
+  std::vector<SceneError> errors;
+  BuiltScene built;
+  std::string error;
+  // the ball's 60 control points are 4.6 mm apart, the pad's 1,000 2.2 mm: refused at the ball
+  const std::string coarse = WithPad(1000, false, 60);
+  ASSERT_TRUE(LoadSceneFromString(coarse, "t.yaml", &s, &errors));
+  EXPECT_FALSE(BuildScene(s, &built, &error));
+  EXPECT_NE(error.find("t.yaml:8:5"), std::string::npos) << error;
+  EXPECT_NE(error.find("Boussinesq surface of 'pad'"), std::string::npos) << error;
+  EXPECT_NE(error.find("Give 'ball' control_points >= "), std::string::npos) << error;
+  // what it suggests builds, and so do two-pass contact and a coarse pad
+  const size_t at = error.find(">= ") + 3;
+  const int suggested = std::stoi(error.substr(at));
+  EXPECT_GT(suggested, 60);
+  for (const std::string& ok : {WithPad(1000, false, suggested), WithPad(1000, true, 60), WithPad(150, false, 60)}) {
+    Scene fine;
+    BuiltScene fine_built;
+    ASSERT_TRUE(LoadSceneFromString(ok, "t.yaml", &fine, &errors)) << (errors.empty() ? "" : errors[0].Format());
+    EXPECT_TRUE(BuildScene(fine, &fine_built, &error)) << error;
+  }
+}
+
 TEST(SceneFile, IllPosedMechanicsAreRefusedWithTheirPosition) {
   // zero, negative, NaN and infinite masses of a free body
   const std::string base = kMinimal;
