@@ -86,6 +86,32 @@ TEST(JointLimit, FingerDrivenPastALimitStopsThereAndTheRowCarriesTheMotorTorque)
   EXPECT_TRUE(w.limit_rows.empty());
 }
 
+TEST(JointLimit, JointStartingPastItsLimitIsPushedBackAtTheBoundedSpeed) {
+  // like a starting overlap (max_push_out_speed): a joint set 0.1 rad past its limit
+  // is not snapped back in one step but returned at most 0.1 m/s at the row's lever
+  World w;
+  w.params.gravity.setZero();
+  w.hand.fingers.push_back(MakeFinger(Vec4(0, 1.7, 0.3, 0.2), Vec4(0, 1.7, 0.3, 0.2)));
+  w.Finalize();
+  const double lever = 0.035 + 0.025 + 0.018;  // joint 1 moves the whole finger
+  const double per_step = w.params.max_push_out_speed * w.params.dt / lever;
+  double prev = 1.7;
+  int steps = 0;
+  while (w.hand.fingers[0].q[1] > 1.6 + 1e-12 && steps < 1000) {
+    w.Step();
+    ++steps;
+    const double q = w.hand.fingers[0].q[1];
+    EXPECT_LE(prev - q, per_step * (1 + 1e-9)) << steps;
+    EXPECT_LT(q, prev) << steps;
+    prev = q;
+  }
+  EXPECT_NEAR(steps, 0.1 / per_step, 2.0);
+  for (int i = 0; i < 10; ++i) w.Step();
+  EXPECT_NEAR(w.hand.fingers[0].q[1], 1.6, 1e-9);
+  ASSERT_EQ(w.limit_rows.size(), 1u);
+  EXPECT_NEAR(w.limit_rows[0].Torque(), -kStiffness * 0.1, 1e-9);  // the motor's pull toward 1.7
+}
+
 // A finger held with its two distal joints at their lower limits (the motors pull
 // them 0.1 rad past), palm up; a free rigid ball pushed down onto the fingertip by
 // a constant force F, centred by lateral springs. Joint 1 is 0.2 rad from its
