@@ -6,6 +6,7 @@
 
 #include <cmath>
 
+#include "core/fc_fallback.h"
 #include "core/fc_problem.h"
 #include "core/joint_limits.h"
 #include "core/world.h"
@@ -284,6 +285,34 @@ void RunComplementarity(EPath path) {
 TEST(JointLimit, LimitsAndContactsAreComplementaryUnderGaussSeidel) { RunComplementarity(EPath::Nsgs); }
 TEST(JointLimit, LimitsAndContactsAreComplementaryUnderNewton) { RunComplementarity(EPath::Newton); }
 TEST(JointLimit, LimitsAndFrictionlessContactsAreComplementary) { RunComplementarity(EPath::NormalsOnly); }
+
+// The step's problem as exported (run --export-fclib, bench): its limit rows are
+// frictionless contacts with zero tangent blocks, which the explicit solvers
+// (NSGS, Newton, auto) solve from zero to the step's limit forces.
+TEST(JointLimit, ExportedProblemWithLimitRowsIsSolvedByEveryExplicitMethod) {
+  PushScene s;
+  BuildPushScene(&s, 0.8);
+  for (int i = 0; i < 400; ++i) s.w.Step();
+  FcProblem p;
+  Eigen::VectorXd stepped;
+  AssembleContactProblem(s.w, &p, &stepped);
+  ASSERT_STREQ(CheckFcProblem(p), "");
+  const int nc = static_cast<int>(s.w.rows.size());
+  ASSERT_EQ(s.w.limit_rows.size(), 2u);
+  for (EFcMethod m : {EFcMethod::Nsgs, EFcMethod::Newton, EFcMethod::Auto}) {
+    FcMethodParams params;
+    params.tolerance = 1e-10;
+    Eigen::VectorXd r;
+    const FcMethodResult res = SolveFcMethod(p, m, params, &r);
+    EXPECT_TRUE(res.converged) << res.Summary();
+    for (int k = 0; k < 2; ++k) {
+      const int c = nc + k;
+      EXPECT_NEAR(r[3 * c], stepped[3 * c], 1e-4 * stepped[3 * c]) << FcMethodName(m) << " limit " << k;
+      EXPECT_EQ(r[3 * c + 1], 0.0);
+      EXPECT_EQ(r[3 * c + 2], 0.0);
+    }
+  }
+}
 
 }  // namespace
 }  // namespace gs
