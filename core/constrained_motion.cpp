@@ -1,6 +1,6 @@
-// Constrained motion (paper Figure 1, last stage): the solved contact forces
-// move the articulations (dq = dq_free + A^-1 sum J^T f, already accumulated by
-// the solver) and the control points (u = u_free + sum phi F, eq. 7). A step
+// Constrained motion (paper Figure 1, last stage): the solved contact and
+// joint-limit forces move the articulations (dq = dq_free + A^-1 sum J^T f,
+// already accumulated by the solver) and the control points (u = u_free + sum phi F, eq. 7). A step
 // whose result is not finite is undone: the previous configuration is kept and
 // the step is reported as rejected.
 #include <algorithm>
@@ -35,6 +35,10 @@ const char* NonFiniteStage(const World& w) {
     space += (0.0 * r.q).sum() + (0.0 * r.w_diag).sum() + (0.0 * r.frame).sum() + 0.0 * r.mu;
     forces += (0.0 * r.r).sum();
   }
+  for (const LimitRow& l : w.limit_rows) {
+    space += 0.0 * l.q + 0.0 * l.w;
+    forces += 0.0 * l.r;
+  }
   const bool space_ok = space == 0.0, forces_ok = forces == 0.0;
   if (!space_ok) return "contact space: a contact's gap, frame or Delassus block is not finite";
   if (!forces_ok) return "solve: a contact force is not finite";
@@ -58,6 +62,7 @@ void Undo(World& w) {
   }
   for (Finger& f : w.hand.fingers) f.q = f.q_prev;
   for (ContactRow& r : w.rows) r.r.setZero();
+  for (LimitRow& l : w.limit_rows) l.r = 0.0;
   // whatever was not finite may sit outside the live points, which the next free
   // motion alone clears: back to exactly at rest everywhere but u
   for (Body& b : w.bodies) {
@@ -72,8 +77,12 @@ void MoveArticulations(World& w) {
   for (Articulation& a : w.articulations) {
     const Vec6 dq = a.dq_free + a.dq;
     if (a.finger >= 0) {
+      // not clamped: the limit rows of the solve hold the joints (core/joint_limits.h);
+      // a joint ends past a limit only by the solver's tolerance, or when the step's
+      // contacts moved it past a limit farther than joint_limit_margin away, and the
+      // next step's row pushes it back (docs/solver.md, "Joint limits")
       Finger& f = w.hand.fingers[a.finger];
-      f.q = ClampJoints(f.model, f.q_prev + dq.head<4>());
+      f.q = f.q_prev + dq.head<4>();
       f.kin = FingerForward(f.model, w.hand.pose, f.q);
       if (f.body >= 0) {
         Body& b = w.bodies[f.body];
@@ -140,6 +149,7 @@ void ConstrainedMotion(World& w) {
   w.warm_next.clear();
   for (const ContactRow& r : w.rows) w.warm_next.emplace_back(r.contact.key, r.frame.transpose() * r.r);
   std::swap(w.warm_prev, w.warm_next);
+  KeepLimitForces(w);
 }
 
 }  // namespace gs

@@ -262,6 +262,8 @@ void BuildContactSpace(World& w) {
     row.mu = w.Friction(c.body[0], c.body[1]);
     ++w.profile.work.w_blocks_built;
   }
+  // the finger joints near a limit: rows of the same solve (core/joint_limits.cpp)
+  BuildJointLimitRows(w);
   const auto t1 = Clock::now();
 
   // deformable part (skipped for rigid bodies): eq. 8 weights, the side's merged

@@ -45,7 +45,8 @@ FingerKinematics FingerForward(const FingerModel& f, const Pose& hand, const Vec
 /// fingertip is J * qdot (one column per joint).
 Mat34 FingerPointJacobian(const FingerKinematics& k, const Vec3& p);
 
-/// Clamps joints to their limits.
+/// Clamps joints to their limits (scene setup, motor targets, inverse kinematics;
+/// in the step the limits are rows of the solve, core/joint_limits.h).
 Vec4 ClampJoints(const FingerModel& f, const Vec4& q);
 
 /// Joint angles that bring the fingertip centre to `target` (hand frame), by damped

@@ -4,7 +4,8 @@
 //   (M/dt^2 + B/dt + K_drive + D_drive/dt) dq = G_ext + M v/dt + K_drive e_drive
 // (the inertial variant); the quasi-static model of the paper (eq. 15) drops M.
 // For a finger, joint space, motors as implicit PD toward the joint targets:
-//   ((B + K_d)/dt + K_p) dq = K_p (q_target - q).
+//   ((B + K_d)/dt + K_p) dq = K_p (q_target - q),
+// unclamped: the joint limits act in the solve (core/joint_limits.h).
 // The inverse mobility A^-1 is kept: the solver maps contact forces through it
 // (W_rigid = J (A)^-1 J^T, eq. 17). Deformation relaxes: u_free = (C D/dt) u.
 #include <algorithm>
@@ -113,9 +114,11 @@ void FreeMotion(World& w) {
     const bool finite = a.dq_free.allFinite() && a.a_inv.allFinite();
     if (!finite) MarkRejected(w, "free motion: not finite (an input force, target or parameter)");
     if (a.finger >= 0) {
+      // not clamped to the joint limits: the motors' pull past a limit is what the
+      // limit rows of the solve must hold (core/joint_limits.h), and contacts are
+      // linearised at this configuration, the one the solver starts from
       Finger& f = w.hand.fingers[a.finger];
-      const Vec4 q_free = finite ? ClampJoints(f.model, f.q + a.dq_free.head<4>()) : f.q;
-      if (finite) a.dq_free.head<4>() = q_free - f.q;
+      const Vec4 q_free = finite ? Vec4(f.q + a.dq_free.head<4>()) : f.q;
       f.kin = FingerForward(f.model, w.hand.pose, q_free);
       if (f.body >= 0) w.bodies[f.body].pose = f.kin.tip;
     } else {

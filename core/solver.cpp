@@ -5,12 +5,18 @@
 // accumulators (dq += A^-1 H^T dr) and, for deformable bodies, the control
 // points under the force (u_acc += phi F, eq. 13); a contact reads its gap back
 // from them. A sweep costs O(contacts x (dof + influence)), never O(contacts^2).
+// The joint-limit rows (core/joint_limits.h) follow the contacts in the same
+// index space (row rows.size() + k is limit_rows[k]): frictionless rows whose
+// force moves a finger's accumulator through A^-1, so every solver path below
+// (Gauss-Seidel, normals only, Newton, the assembled problem) solves them with
+// the contacts.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 
 #include "core/contact_jacobian.h"
 #include "core/fc_newton.h"
+#include "core/joint_limits.h"
 #include "core/local_solver.h"
 #include "core/world.h"
 
@@ -19,23 +25,41 @@ namespace {
 
 class WorldDelassus {
  public:
-  explicit WorldDelassus(World& w) : w_(w) {}
+  explicit WorldDelassus(World& w) : w_(w), contacts_(static_cast<int>(w.rows.size())) {}
 
-  int NumContacts() const { return static_cast<int>(w_.rows.size()); }
-  Mat3 DiagonalBlock(int c) const { return w_.rows[c].w_diag; }
-  double Mu(int c) const { return w_.rows[c].mu; }
+  /// contacts, then joint-limit rows
+  int NumContacts() const { return contacts_ + static_cast<int>(w_.limit_rows.size()); }
+  Mat3 DiagonalBlock(int c) const { return c < contacts_ ? w_.rows[c].w_diag : LimitBlock(Limit(c)); }
+  double Mu(int c) const { return c < contacts_ ? w_.rows[c].mu : 0.0; }
   double FreeNormSquared() const {
     double s = 0.0;
     for (const ContactRow& r : w_.rows) s += r.q.squaredNorm();
+    for (const LimitRow& l : w_.limit_rows) s += l.q * l.q;
     return s;
+  }
+  /// The free velocity q of row c and its force as stored in the World.
+  Vec3 Free(int c) const { return c < contacts_ ? w_.rows[c].q : Vec3(Limit(c).q, 0.0, 0.0); }
+  Vec3 Stored(int c) const { return c < contacts_ ? w_.rows[c].r : Vec3(Limit(c).r, 0.0, 0.0); }
+  void Store(int c, const Vec3& r) {
+    if (c < contacts_) {
+      w_.rows[c].r = r;
+    } else {
+      w_.limit_rows[c - contacts_].r = r[0];
+    }
   }
 
   // Each side adds to a frame-coordinate term (finger rows) and a world-coordinate
   // term (free bodies' J dq, deformable sides' R d), turned into the frame once.
-  Vec3 Velocity(int c, const Vec3* /*r*/) const { return VelocityFrom(c, w_.rows[c].q); }
+  Vec3 Velocity(int c, const Vec3* /*r*/) const {
+    if (c >= contacts_) return Vec3(LimitVelocity(w_, Limit(c)), 0.0, 0.0);
+    return VelocityFrom(c, w_.rows[c].q);
+  }
   /// W r alone, without the free velocity q: the columns of an assembled W, exact
   /// (q + W e - q would round W e to q's last bit, and break scale invariance)
-  Vec3 Response(int c) const { return VelocityFrom(c, Vec3::Zero()); }
+  Vec3 Response(int c) const {
+    if (c >= contacts_) return Vec3(LimitResponse(w_, Limit(c)), 0.0, 0.0);
+    return VelocityFrom(c, Vec3::Zero());
+  }
   Vec3 VelocityFrom(int c, const Vec3& q) const {
     const ContactRow& row = w_.rows[c];
     Vec3 u = q, v = Vec3::Zero();
@@ -47,6 +71,7 @@ class WorldDelassus {
   }
 
   void ApplyDelta(int c, const Vec3& dr) {
+    if (c >= contacts_) return PushLimit(w_, Limit(c), dr[0]);  // its tangents carry nothing
     const ContactRow& row = w_.rows[c];
     const Vec3 f = row.frame.transpose() * dr;  // the force on side 0, world
     for (const ContactSide& s : row.side) {
@@ -58,6 +83,7 @@ class WorldDelassus {
   // Frictionless contacts carry normal forces only: the normal row of Velocity
   // and a normal ApplyDelta, a third of the work of the 3x6 rows.
   double NormalVelocity(int c) const {
+    if (c >= contacts_) return LimitVelocity(w_, Limit(c));
     const ContactRow& row = w_.rows[c];
     double u = row.q[0];
     Vec3 v = Vec3::Zero();
@@ -69,6 +95,7 @@ class WorldDelassus {
   }
 
   void ApplyNormalDelta(int c, double dr) {
+    if (c >= contacts_) return PushLimit(w_, Limit(c), dr);
     const ContactRow& row = w_.rows[c];
     const Vec3 f = row.frame.row(0).transpose() * dr;
     for (const ContactSide& s : row.side) {
@@ -80,6 +107,8 @@ class WorldDelassus {
   int propagations() const { return propagations_; }
 
  private:
+  const LimitRow& Limit(int c) const { return w_.limit_rows[c - contacts_]; }
+
   // the eq. 8 interpolation of the side's accumulated control-point displacements (rest frame)
   Vec3 Interpolated(const ContactSide& s) const {
     const Vec3* ua = w_.bodies[s.body].u_acc.data();
@@ -101,6 +130,7 @@ class WorldDelassus {
   }
 
   World& w_;
+  int contacts_;  ///< rows.size(): the first limit row's index
   int propagations_ = 0;
 };
 
@@ -179,7 +209,7 @@ void ContinueWithNewton(World& w, WorldDelassus& op, const NsgsParams& params, N
   const int n = op.NumContacts();
   const int steps = NewtonStepsAllowed(w.params, n);
   if (steps <= 0 || params.time_budget_s > 0.0) return;
-  for (int c = 0; c < n; ++c) w.rows[c].r = w.solve_r[c];
+  for (int c = 0; c < n; ++c) op.Store(c, w.solve_r[c]);
   FcProblem p;
   Eigen::VectorXd r;
   AssembleContactProblem(w, &p, &r);  // leaves the accumulators at the NSGS forces
@@ -187,7 +217,7 @@ void ContinueWithNewton(World& w, WorldDelassus& op, const NsgsParams& params, N
   Eigen::VectorXd d = Eigen::VectorXd::Ones(3 * n);
   if (scaled)
     for (int c = 0; c < n; ++c) {
-      const double wc = ForceToGap(w.rows[c].w_diag);
+      const double wc = ForceToGap(op.DiagonalBlock(c));
       d.segment<3>(3 * c).setConstant(wc > 0.0 ? wc : 1.0);
     }
   p.W = p.W * d.cwiseInverse().asDiagonal();
@@ -203,10 +233,10 @@ void ContinueWithNewton(World& w, WorldDelassus& op, const NsgsParams& params, N
   r = r.cwiseQuotient(d);
   std::vector<Vec3>& old = w.solve_r;
   for (int c = 0; c < n; ++c) {
-    Vec3 x = ProjectOntoCone(Vec3(r.segment<3>(3 * c)), w.rows[c].mu);
+    Vec3 x = ProjectOntoCone(Vec3(r.segment<3>(3 * c)), op.Mu(c));
     if (!x.allFinite()) x = old[c];
     op.ApplyDelta(c, x - old[c]);
-    w.rows[c].r = old[c];  // the NSGS forces, to go back to
+    op.Store(c, old[c]);  // the NSGS forces, to go back to
     old[c] = x;
   }
   const NsgsErrors e = ExactErrors(op, w.solve_r.data(), params);
@@ -219,8 +249,8 @@ void ContinueWithNewton(World& w, WorldDelassus& op, const NsgsParams& params, N
     return;
   }
   for (int c = 0; c < n; ++c) {
-    op.ApplyDelta(c, w.rows[c].r - w.solve_r[c]);
-    w.solve_r[c] = w.rows[c].r;
+    op.ApplyDelta(c, op.Stored(c) - w.solve_r[c]);
+    w.solve_r[c] = op.Stored(c);
   }
 }
 
@@ -242,29 +272,31 @@ double StepGapScale(const WorldParams& wp) {
 void SolveContacts(World& w) {
   using Clock = std::chrono::steady_clock;
   const auto t0 = Clock::now();
-  const int n = static_cast<int>(w.rows.size());
-  w.solve_r.resize(n);
   WorldDelassus op(w);
+  const int n = op.NumContacts();  // contacts and joint-limit rows
+  const int contacts = static_cast<int>(w.rows.size());
+  w.solve_r.resize(n);
   // every contact frictionless: normals only (their warm start loses its
-  // tangential part, which the cone of mu = 0 projects away anyway)
+  // tangential part, which the cone of mu = 0 projects away anyway); the limit
+  // rows are frictionless
   bool frictionless = true;
   for (const ContactRow& row : w.rows) frictionless &= (row.mu == 0.0);
   // accumulators start from the warm-start forces, each projected on its cone
   // first (the last step's force may lie outside this step's cone: new frame, new
   // mu), so that a skipped solve moves the bodies with the forces it reports
   for (int c = 0; c < n; ++c) {
-    ContactRow& row = w.rows[c];
-    row.r = frictionless ? Vec3(std::max(0.0, row.r[0]), 0.0, 0.0) : ProjectOntoCone(row.r, row.mu);
-    if (!row.r.allFinite()) row.r.setZero();
-    w.solve_r[c] = row.r;
-    const Vec3& r0 = w.rows[c].r;
+    const Vec3 warm = op.Stored(c);
+    Vec3 r0 = frictionless ? Vec3(std::max(0.0, warm[0]), 0.0, 0.0) : ProjectOntoCone(warm, op.Mu(c));
+    if (!r0.allFinite()) r0.setZero();
+    op.Store(c, r0);
+    w.solve_r[c] = r0;
     if (r0[0] != 0.0 || r0[1] != 0.0 || r0[2] != 0.0) op.ApplyDelta(c, r0);  // no warm start: nothing to move
   }
   // no time left for one sweep (and the last step did sweep, and nearly every
   // contact has a last force): the warm start stands
   if (n > 0 && w.params.step_time_budget_s > 0.0 && w.params.budget_may_skip_solve && w.last_sweep_s_ > 0.0 &&
       !w.last_solve_skipped_ &&
-      20 * (n - w.profile.work.warm_started) <= n) {
+      20 * (contacts - w.profile.work.warm_started) <= contacts) {
     const double spent = std::chrono::duration<double>(t0 - w.step_started()).count();
     const double left = w.params.step_time_budget_s - spent - w.last_constrained_motion_s();
     if (left < w.last_sweep_s_) {
@@ -306,7 +338,7 @@ void SolveContacts(World& w) {
     (frictionless ? w.profile.work.local_solves_normal : w.profile.work.local_solves_3d) += n * res.iterations;
   }
   w.profile.work.propagations += op.propagations();
-  for (int c = 0; c < n; ++c) w.rows[c].r = w.solve_r[c];
+  for (int c = 0; c < n; ++c) op.Store(c, w.solve_r[c]);
   w.profile.solve = std::chrono::duration<double>(Clock::now() - t0).count();
   if (n > 0 && w.profile.iterations > 0) w.last_sweep_s_ = w.profile.solve / w.profile.iterations;
 }
@@ -319,38 +351,54 @@ void ClearAccumulators(World& w) {
     for (Vec3& u : b.u_acc) u.setZero();
 }
 
+// The groups through which row c couples to others (out: up to two; returns how
+// many): a contact side's body when it moves or deforms; a limit row's finger, by
+// its fingertip body (where its contacts are), or by the articulation alone
+// (index bodies + articulation) when it carries none.
+int CouplingGroups(const World& w, int c, int out[2]) {
+  const int contacts = static_cast<int>(w.rows.size());
+  if (c >= contacts) {
+    const LimitRow& l = w.limit_rows[c - contacts];
+    const int body = w.articulations[l.articulation].body;
+    out[0] = body >= 0 ? body : static_cast<int>(w.bodies.size()) + l.articulation;
+    return 1;
+  }
+  int k = 0;
+  for (const ContactSide& s : w.rows[c].side)
+    if (s.articulation >= 0 || s.inf_count > 0) out[k++] = s.body;
+  return k;
+}
+
 }  // namespace
 
 void AssembleContactProblem(World& w, FcProblem* p, Eigen::VectorXd* r) {
-  const int n = static_cast<int>(w.rows.size());
+  WorldDelassus op(w);
+  const int n = op.NumContacts();  // contacts, then joint-limit rows
   p->contacts = n;
   p->q.resize(3 * n);
   p->mu.resize(n);
   if (r) r->resize(3 * n);
   for (int c = 0; c < n; ++c) {
-    p->q.segment<3>(3 * c) = w.rows[c].q;
-    p->mu[c] = w.rows[c].mu;
-    if (r) r->segment<3>(3 * c) = w.rows[c].r;
+    p->q.segment<3>(3 * c) = op.Free(c);
+    p->mu[c] = op.Mu(c);
+    if (r) r->segment<3>(3 * c) = op.Stored(c);
   }
-  // contacts grouped by the bodies through which they couple
-  std::vector<std::vector<int>> by_body(w.bodies.size());
+  // rows grouped by the bodies (or fingers) through which they couple
+  std::vector<std::vector<int>> by_group(w.bodies.size() + w.articulations.size());
+  int groups[2];
   for (int c = 0; c < n; ++c)
-    for (const ContactSide& s : w.rows[c].side)
-      if (s.articulation >= 0 || s.inf_count > 0) by_body[s.body].push_back(c);
-  WorldDelassus op(w);
+    for (int k = CouplingGroups(w, c, groups); k-- > 0;) by_group[groups[k]].push_back(c);
   ClearAccumulators(w);
   std::vector<Eigen::Triplet<double>> trip;
   std::vector<int> mark(n, -1), touched;
   for (int c = 0; c < n; ++c) {
     touched.clear();
-    for (const ContactSide& s : w.rows[c].side) {
-      if (s.articulation < 0 && s.inf_count == 0) continue;
-      for (int d : by_body[s.body])
+    for (int k = CouplingGroups(w, c, groups); k-- > 0;)
+      for (int d : by_group[groups[k]])
         if (mark[d] != c) {
           mark[d] = c;
           touched.push_back(d);
         }
-    }
     std::sort(touched.begin(), touched.end());
     for (int k = 0; k < 3; ++k) {
       const Vec3 e = Vec3::Unit(k);
@@ -367,7 +415,7 @@ void AssembleContactProblem(World& w, FcProblem* p, Eigen::VectorXd* r) {
   p->W.setFromTriplets(trip.begin(), trip.end());
   p->W.makeCompressed();
   // back to the accumulators of the step's forces
-  for (int c = 0; c < n; ++c) op.ApplyDelta(c, w.rows[c].r);
+  for (int c = 0; c < n; ++c) op.ApplyDelta(c, op.Stored(c));
 }
 
 }  // namespace gs

@@ -156,6 +156,8 @@ std::string WellPosedError(const World& w) {
     return Fmt("%s: the contact threshold must be finite and >= 0 m, got %g", world, p.collision.contact_threshold);
   if (!Finite(p.max_push_out_speed) || p.max_push_out_speed < 0.0)
     return Fmt("%s: the push-out speed must be finite and >= 0 m/s, got %g", world, p.max_push_out_speed);
+  if (!Finite(p.joint_limit_margin) || p.joint_limit_margin < 0.0)
+    return Fmt("%s: the joint-limit margin must be finite and >= 0 rad, got %g", world, p.joint_limit_margin);
   if (p.max_contacts < 1) return Fmt("%s: max_contacts must be >= 1, got %g", world, p.max_contacts);
   if (!w.hand.pose.t.allFinite() || !IsRotation(w.hand.pose.R)) return Fmt("%s: the hand pose is not finite", world);
   for (const Body& b : w.bodies) {

@@ -189,7 +189,12 @@ void World::Finalize() {
     }
   warm_prev.reserve(params.max_contacts);
   warm_next.reserve(params.max_contacts);
-  solve_r.reserve(params.max_contacts);
+  // joint-limit rows: two ends of four joints per finger at most
+  const int max_limits = 8 * static_cast<int>(hand.fingers.size());
+  limit_rows.clear();
+  limit_rows.reserve(max_limits);
+  limit_warm.assign(max_limits, 0.0);
+  solve_r.reserve(params.max_contacts + max_limits);
   // merged influences: a few dozen control points per deformable contact side;
   // grown (once) by a scene with wider influences, never in the steady state
   side_inf_idx.reserve(static_cast<size_t>(64) * params.max_contacts);
@@ -200,7 +205,7 @@ void World::Finalize() {
   warm_index.Reserve(params.max_contacts);
   side_inf_idx_prev.reserve(static_cast<size_t>(64) * params.max_contacts);
   side_inf_phi_prev.reserve(static_cast<size_t>(64) * params.max_contacts);
-  gs_scratch.Reserve(params.max_contacts);
+  gs_scratch.Reserve(params.max_contacts + max_limits);
   contacts_prev.reserve(params.max_contacts);
   sleep_set.assign(n, 0);
   sleep_gravity = params.gravity;

@@ -7,6 +7,8 @@
 //                                               MLS interpenetration
 //   BuildContactSpace   contact_space.cpp       frames, free gaps, Jacobians,
 //                                               diagonal Delassus blocks, warm start
+//     BuildJointLimitRows joint_limits.cpp      a finger joint near its limit: a
+//                                               frictionless row in the same solve
 //   SolveContacts       solver.cpp              block Gauss-Seidel, exact Coulomb
 //   ConstrainedMotion   constrained_motion.cpp  apply forces: poses, joints,
 //                                               control-point displacements
@@ -206,6 +208,26 @@ struct ContactRow {
   int prev = -1;           ///< the same contact (key) in the last step's rows, when reuse is on
 };
 
+/// A finger's joint limit as a unilateral row of the solve (core/joint_limits.h):
+/// Signorini on the joint's distance to the limit, solved with the contacts. In the
+/// solver it is a frictionless row (mu = 0) whose normal is the joint's coordinate
+/// scaled by `lever`: velocity sign * lever * dq_j (m), force r (N), applied to the
+/// joint as the torque sign * lever * r. Its tangents carry nothing (zero W rows and
+/// columns; mu = 0 keeps their forces at zero).
+struct LimitRow {
+  int slot = -1;          ///< finger * 8 + joint * 2 + end: the row's key (warm start)
+  int finger = -1, joint = -1, articulation = -1;
+  double sign = 1.0;      ///< +1: the lower limit (pushes q up); -1: the upper
+  double lever = 1.0;     ///< m: the finger's length beyond the joint (row units: metres of arc)
+  double w = 0.0;         ///< W_jj = lever^2 (A^-1)_jj (m/N)
+  double q = 0.0;         ///< free gap: sign * lever * (q_prev + dq_free - limit), + held_back (m)
+  double r = 0.0;         ///< force (N); the joint torque is sign * lever * r (N m)
+  double gap_start = 0.0; ///< sign * lever * (q_prev - limit) (m)
+  double held_back = 0.0; ///< part of a violation present at the step's start left for later steps (m)
+  /// the generalized torque on the joint (N m, signed like q)
+  double Torque() const { return sign * lever * r; }
+};
+
 /// Bodies at rest skip collision detection (docs/skip.md, "Bodies at rest"). A
 /// free body slower than both thresholds for `time` seconds, in as many contacts
 /// each step, falls asleep once no awake moving body's bounding sphere reaches
@@ -283,6 +305,12 @@ struct WorldParams {
   /// to about 100 contacts, 16 at 150, 2 at 300, none from 382 on (a 951-contact step of a
   /// replay had taken 4-5 s). The same in every run: no machine's speed enters it.
   double newton_max_work = 1e9;
+  /// rad: a finger joint whose distance to a limit, at the step's start or after its
+  /// free motion, is at most this much gets a limit row in the step's solve (the
+  /// joint-limit analogue of the contact threshold). A contact response that moves
+  /// a joint further than this in one step past a limit it did not see is pushed
+  /// back by the next step's row (docs/solver.md, "Joint limits").
+  double joint_limit_margin = 0.05;
 };
 
 /// Work done by the last step, counted where it is done: what a scene does not
@@ -308,6 +336,7 @@ struct StepWork {
   int bodies_asleep = 0;      ///< free bodies asleep during this step's collision detection
   int pairs_asleep = 0;       ///< candidate pairs not tested (both asleep, or asleep against a body that does not move)
   int contacts_reused = 0;    ///< contacts of those pairs carried over from the last step
+  int limit_rows = 0;         ///< finger joint-limit rows in the solve (LimitRow)
 };
 
 /// Per-stage times of the last step (s), in the layout of the paper's Figures 6 and 7.
@@ -352,6 +381,8 @@ class World {
   Hand hand;
   std::vector<Articulation> articulations;
   std::vector<ContactRow> rows;
+  /// the joint-limit rows of the step, solved after rows (solver index rows.size() + k)
+  std::vector<LimitRow> limit_rows;
   ContactBuffer contacts;
   StepProfile profile;
   double time = 0.0;
@@ -400,6 +431,7 @@ class World {
   NsgsScratch gs_scratch;
   std::vector<std::pair<uint64_t, Vec3>> warm_prev, warm_next;  ///< previous step's world forces (key, force)
   KeyIndex warm_index;                ///< key -> index in warm_prev (built by the contact space)
+  std::vector<double> limit_warm;     ///< last step's force (N) of each limit row slot (LimitRow::slot), 0 when inactive
   std::vector<Vec3> solve_r;
   std::vector<int> side_inf_idx;      ///< merged influences of the contact sides (see ContactSide)
   std::vector<double> side_inf_phi;
@@ -461,6 +493,10 @@ Mat3 SolidInertia(const ShapeDesc& shape, double mass);
 void FreeMotion(World& w);
 void DetectCollisions(World& w);
 void BuildContactSpace(World& w);
+/// The joint-limit rows of the step (core/joint_limits.cpp; called by BuildContactSpace).
+void BuildJointLimitRows(World& w);
+/// Keeps the step's limit forces by slot for the next warm start (called by ConstrainedMotion).
+void KeepLimitForces(World& w);
 void SolveContacts(World& w);
 /// The scaled measure's gap for the step (NsgsParams::gap_scale): |g| dt^2
 /// (9.81 m/s^2 when the scene has no gravity).
@@ -488,8 +524,10 @@ bool FindPassThrough(World& w);
 
 /// The last step's contact problem with W assembled explicitly, column by column
 /// through the same matrix-free operator the solver uses (for export and checks:
-/// it allocates and costs O(contacts x contacts sharing a body); never called by
-/// Step). `r`, when not null, receives the step's forces in the same order.
+/// it allocates and costs O(contacts x contacts sharing a body); Step calls it only
+/// for the Newton continuation). Its rows are the contacts (w.rows, in order) then
+/// the joint-limit rows (w.limit_rows: mu = 0, zero tangent rows and columns), as
+/// the step solved them. `r`, when not null, receives the step's forces in the same order.
 void AssembleContactProblem(World& w, FcProblem* p, Eigen::VectorXd* r = nullptr);
 
 }  // namespace gs

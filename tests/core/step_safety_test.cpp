@@ -42,7 +42,9 @@ namespace {
 
 // a deformable ball resting on a plane, pushed sideways by a drive, and a second
 // rigid free box on the plane: free, fixed, rigid and deformable paths all run
-void BuildScene(World& w) {
+// (with `finger`, also a finger without fingertip whose motors pull two joints past
+// their limits: the joint-limit rows run too)
+void BuildScene(World& w, bool finger = false) {
   w.params.dt = 1e-3;
   w.params.solver.tolerance = 1e-7;
   w.params.solver.max_iterations = 200;
@@ -52,6 +54,15 @@ void BuildScene(World& w) {
   s.drive.force = Vec3(0.05, 0, 0);
   AddBody(w, s);
   AddBody(w, test::SmallBox("box", Vec3(0.05, 0, 0.0102), 0.01));
+  if (finger) {
+    Finger f;
+    f.model.link_lengths = {0.035, 0.025, 0.018};
+    f.model.limits = {{{-0.6, 0.6}, {-0.2, 1.6}, {0.0, 1.8}, {0.0, 1.6}}};
+    f.model.base = Pose::Translation(Vec3(0, 0.2, 0.2));
+    f.q = Vec4(0.0, 1.5, 0.1, 0.5);
+    f.q_target = Vec4(0.0, 2.0, -0.5, 0.5);
+    w.hand.fingers.push_back(f);
+  }
   w.Finalize();
 }
 
@@ -79,6 +90,30 @@ TEST(StepSafety, SteadyStateStepDoesNotAllocate) {
   EXPECT_EQ(allocations, 0);
   EXPECT_LT(newton, 200) << "every step needed Newton: nothing was checked";
   EXPECT_GT(w.rows.size(), 10u);
+  EXPECT_EQ(w.rejected_steps, 0);
+}
+
+TEST(StepSafety, SteadyStateStepWithJointLimitsDoesNotAllocate) {
+  World w;
+  BuildScene(w, true);
+  for (int i = 0; i < 300; ++i) w.Step();
+  ASSERT_EQ(w.limit_rows.size(), 2u);
+  long allocations = 0;
+  int checked = 0;
+  for (int i = 0; i < 100; ++i) {
+    g_allocations = 0;
+    g_counting = true;
+    w.Step();
+    g_counting = false;
+    if (w.profile.newton_steps > 0) continue;  // allocates (see above)
+    allocations += g_allocations.load();
+    ++checked;
+  }
+  EXPECT_EQ(allocations, 0);
+  EXPECT_GT(checked, 0);
+  // both limits hold their joints with the motors' pull
+  EXPECT_GT(w.limit_rows[0].r, 0.0);
+  EXPECT_GT(w.limit_rows[1].r, 0.0);
   EXPECT_EQ(w.rejected_steps, 0);
 }
 

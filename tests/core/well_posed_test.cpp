@@ -151,6 +151,7 @@ TEST(WellPosed, EveryIllPosedParameterIsNamed) {
       {"zero sweeps", nullptr, [](World& w) { w.params.solver.max_iterations = 0; }, "sweep"},
       {"negative contact threshold", nullptr, [](World& w) { w.params.collision.contact_threshold = -1e-4; },
        "threshold"},
+      {"NaN joint-limit margin", nullptr, [](World& w) { w.params.joint_limit_margin = NAN; }, "joint-limit margin"},
       {"NaN hand pose", nullptr, [](World& w) { w.hand.pose.t.z() = NAN; }, "hand"},
       {"zero motor stiffness", nullptr, [](World& w) { w.hand.fingers[0].motor_stiffness = 0; }, "motor stiffness"},
       {"negative joint damping", nullptr, [](World& w) { w.hand.fingers[0].joint_damping = -1; }, "damping"},
