@@ -170,12 +170,12 @@ int RunBenchCollision(const BenchOptions& opt) {
           "{\"bench\":\"collision\",\"step\":%d,\"depth_mm\":%.4f,\"contacts\":%d,\"traverse_ms_median\":%.4f,"
           "\"interpenetration_ms_median\":%.4f,\"refit_ms_median\":%.4f,\"total_ms_median\":%.4f,"
           "\"total_ms_min\":%.4f,\"node_pairs\":%d,\"leaf_pairs\":%d,\"projections\":%d,\"fits\":%d,"
-          "\"culled\":%d,\"rejected\":%d,\"out_of_border\":%d,\"on_edges\":%d,\"cache_build_ms_median\":%.4f,\"cache_hit_ms_median\":%.4f,"
+          "\"culled\":%d,\"far\":%d,\"rejected\":%d,\"out_of_border\":%d,\"on_edges\":%d,\"cache_build_ms_median\":%.4f,\"cache_hit_ms_median\":%.4f,"
           "\"paper_contacts\":%d,\"paper_total_ms\":%.3f,\"repetitions\":%d}\n",
           k + 1, 1e3 * col[k].depth, col[k].contacts, col[k].traverse, col[k].interp, col[k].refit, col[k].total,
           col[k].total_min, col[k].stats.node_pairs, col[k].stats.leaf_pairs, col[k].stats.projections,
-          col[k].stats.fits, col[k].stats.culled, col[k].stats.rejected, col[k].stats.out_of_border,
-          col[k].stats.on_edges, col[k].cache_build, col[k].cache_hit,
+          col[k].stats.fits, col[k].stats.culled, col[k].stats.far, col[k].stats.rejected,
+          col[k].stats.out_of_border, col[k].stats.on_edges, col[k].cache_build, col[k].cache_hit,
           paper_contacts[k], paper_total[k], reps);
     return 0;
   }
@@ -206,12 +206,12 @@ int RunBenchCollision(const BenchOptions& opt) {
   row("Hierarchy update (ms)", rf, paper_update);
   row("Total time (ms)", tt, paper_total);
   std::printf("\nOne pass (ours): sphere tests / leaf pairs / projections / MLS fits / culled /\n"
-              "rejected (of which out of the coupled leaf's border: the curvature rejection; smooth points\n"
+              "stopped outside the threshold / rejected (of which out of the coupled leaf's border: the curvature rejection; smooth points\n"
               "on an edge's MLS, left to the edge's own points: the edge rule):\n");
   for (int k = 0; k < 3; ++k)
-    std::printf("  step%d: %d / %d / %d / %d / %d / %d (%d; %d)\n", k + 1, col[k].stats.node_pairs,
+    std::printf("  step%d: %d / %d / %d / %d / %d / %d / %d (%d; %d)\n", k + 1, col[k].stats.node_pairs,
                 col[k].stats.leaf_pairs, col[k].stats.projections, col[k].stats.fits, col[k].stats.culled,
-                col[k].stats.rejected, col[k].stats.out_of_border, col[k].stats.on_edges);
+                col[k].stats.far, col[k].stats.rejected, col[k].stats.out_of_border, col[k].stats.on_edges);
   std::printf("With the leaf-pair caches (traversal and interpenetration, ms): rebuilt %.3f / %.3f / %.3f,\n"
               "served %.3f / %.3f / %.3f (the steps while the motion stays within the margin).\n",
               col[0].cache_build, col[1].cache_build, col[2].cache_build, col[0].cache_hit, col[1].cache_hit,

@@ -13,6 +13,8 @@ using Clock = std::chrono::steady_clock;
 
 // bound on how much one projection fit shrinks the distance to the surface's foot
 constexpr double kContraction = 0.05;
+// ProjectNear's `far` when every projection must run to convergence
+constexpr double kNoFarStop = std::numeric_limits<double>::infinity();
 // subtrees of at most this many nodes (8 leaves) are scanned, not descended, against a leaf
 constexpr int kScanNodes = 15;
 // a leaf patch within this fraction of the bandwidth of the MLS surface over its
@@ -394,6 +396,20 @@ const int* SupportOf(const SphereTree& ts, const Vec3& q, double support, int* l
   return s->ball.data();
 }
 
+// Whether x stands outside the surface near leaf l by more than `far`, told by the
+// leaf's fit (trusted or not): x outside the fit by more than `far` plus twice the
+// fit's error over the leaf (sampled at build), its closest point on the fit inside
+// the leaf's sphere, where that error was measured.
+bool FarAboveFit(const SphereTree& ts, int l, const Vec3& x, double h, double far) {
+  const MlsPatch* fit = ts.leaf_fit(l);
+  if (!fit || fit->h != h) return false;
+  const double margin = 2.0 * ts.leaf_fit_error(l);
+  const Vec3 q = fit->Closest(x);
+  const TreeNode& node = ts.node(ts.leaf_node(l));
+  if (!q.allFinite() || !((q - node.center).squaredNorm() <= node.rest_radius * node.rest_radius)) return false;
+  return (x - q).dot(fit->NormalBelow(q)) - margin > far;
+}
+
 // Projects x onto the MLS surface of the surface body near its leaf *leaf, what
 // ProjectOntoSurface does over all the body's points: every fit sees every point
 // within the kernel's support (the leaf follows the iterate). Where the leaf's
@@ -401,7 +417,7 @@ const int* SupportOf(const SphereTree& ts, const Vec3& q, double support, int* l
 // same from any start near it) the fits start on the patch's point closest to x, usually one
 // fit from converged; elsewhere (sharp edges) they start at x, like the reference.
 bool ProjectNear(const SphereTree& ts, const Vec3* pos, const Vec3* nrm, const Vec3& x, const MlsParams& mls,
-                 int* leaf, CollisionScratch* s, MlsProjection* out) {
+                 double far, int* leaf, CollisionScratch* s, MlsProjection* out) {
   const double support = mls.support * mls.bandwidth;
   const MlsPatch* patch = ts.leaf_patch(*leaf);
   Vec3 q = patch ? patch->Closest(x) : x;
@@ -427,6 +443,17 @@ bool ProjectNear(const SphereTree& ts, const Vec3* pos, const Vec3* nrm, const V
       if (at == *leaf) break;
     }
   }
+  // A fit that strays from the MLS surface by at most e over its leaf (sampled at
+  // build: twice that is the margin) puts x's distance to the surface there within 2e
+  // of its distance to the fit: a point outside it by more than `far` + 2e has no
+  // contact near this leaf, and no MLS fit is needed to say so.
+  if (FarAboveFit(ts, *leaf, x, mls.bandwidth, far)) {
+    out->iterations = 0;
+    out->point = x;
+    out->normal = Vec3::UnitZ();
+    out->far = true;
+    return true;
+  }
   Vec3 normal = Vec3::UnitZ();
   out->iterations = 0;
   out->converged = false;
@@ -444,6 +471,17 @@ bool ProjectNear(const SphereTree& ts, const Vec3* pos, const Vec3* nrm, const V
       }
       const double moved = (next - q).norm();
       q = next;
+      // Outside the surface by more than `far` plus what the fits still have to move
+      // (in all at most the last move again, at a contraction of 1/2 or better; from
+      // a patch's start it is 1/20): no contact, whatever the converged foot. Most
+      // projections of a grasp are of points near a curved surface but not on it.
+      if ((x - q).dot(normal) - 2.0 * moved > far) {
+        out->iterations = fits;
+        out->point = q;
+        out->normal = normal;
+        out->far = true;
+        return q.allFinite() && normal.allFinite();
+      }
       // from a trusted patch's start, one fit shrinks the distance to the foot at
       // least 20-fold (measured: the second move is at most 1.1% of the first on
       // the paper's scene), so the point is within tolerance * h once the first
@@ -634,8 +672,13 @@ void ProjectSide(int id_q, const SphereTree& tq, const Pose& q_to_s, int id_s, c
     MlsProjection proj;
     int coupled = ls;
     ++stats->projections;
-    const bool ok = ProjectNear(ts, pos, nrm, x, mls, &coupled, s, &proj);
+    const bool ok = ProjectNear(ts, pos, nrm, x, mls, params.far_stop ? params.contact_threshold : kNoFarStop,
+                                &coupled, s, &proj);
     stats->fits += proj.iterations;
+    if (ok && proj.far) {
+      ++stats->far;
+      continue;
+    }
     if (!ok || !proj.point.allFinite() || !proj.normal.allFinite()) {
       ++stats->rejected;
       continue;
@@ -798,6 +841,7 @@ void CollisionStats::Add(const CollisionStats& o) {
   leaf_pairs += o.leaf_pairs;
   projections += o.projections;
   fits += o.fits;
+  far += o.far;
   rejected += o.rejected;
   on_edges += o.on_edges;
   out_of_border += o.out_of_border;

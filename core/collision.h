@@ -56,6 +56,12 @@ struct CollisionParams {
   /// query points (a fingertip on a box's edge) keep theirs. false: kept (for
   /// measuring the rule).
   bool edge_rule = true;
+  /// true: a projection stops as soon as the query point is known to stand outside
+  /// the surface by more than contact_threshold (from the leaf's fit and its error
+  /// before any MLS fit, or from the fits' last move), since it gives no contact
+  /// (CollisionStats::far); false: every projection runs to convergence (for
+  /// checking that the early stop loses no contact).
+  bool far_stop = true;
   /// Leaf-pair cache (PairCache): the margin, as a fraction of the two trees' mean
   /// leaf radii, by which the cached traversal reaches beyond the contact threshold.
   /// The cache serves the following steps while the trees' relative motion plus
@@ -104,6 +110,7 @@ struct CollisionStats {
   int out_of_border = 0;  ///< of rejected: feet outside the coupled leaf's radius + r_eps (curvature rejection)
   int on_edges = 0;       ///< of rejected: smooth points on an edge's MLS, left to the edge's own points (edge_rule)
   int culled = 0;         ///< leaves skipped: above every overlapping leaf's slab by more than delta_eps
+  int far = 0;            ///< projections stopped early: outside the surface by more than delta_eps
   int contacts = 0;       ///< contacts added
   int dropped = 0;        ///< contacts lost because the buffer was full
   int cache_hits = 0;     ///< body pairs whose leaf pairs came from their PairCache

@@ -52,6 +52,7 @@ struct MlsProjection {
   Vec3 normal = Vec3::Zero();  ///< outward unit normal there
   int iterations = 0;
   bool converged = false;
+  bool far = false;  ///< stopped early: farther outside the surface than the caller asked about
 };
 
 /// The MLS surface near one point, cached: a quadratic height field

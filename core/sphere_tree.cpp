@@ -154,14 +154,17 @@ SphereTree::EBuildError SphereTree::Build(const PointCloud& cloud, const MlsPara
   patches_.assign(leaf_node_.size(), MlsPatch{});
   patch_ok_.assign(leaf_node_.size(), 0);
   patch_error_.assign(leaf_node_.size(), std::numeric_limits<double>::infinity());
+  fit_error_.assign(leaf_node_.size(), std::numeric_limits<double>::infinity());
   for (size_t l = 0; l < leaf_node_.size(); ++l) {
     int count = 0;
     const int* idx = neighbourhood(static_cast<int>(l), &count);
     MlsPatch& patch = patches_[l];
-    bool ok = MlsFitPatch(cloud.positions.data(), cloud.normals.data(), idx, count, nodes_[leaf_node_[l]].center,
-                          mls, &patch) &&
-              patch.origin.allFinite() && patch.normal.allFinite() &&
-              std::isfinite(patch.c[0] + patch.c[1] + patch.c[2] + patch.c[3] + patch.c[4] + patch.c[5]);
+    const bool fitted =
+        MlsFitPatch(cloud.positions.data(), cloud.normals.data(), idx, count, nodes_[leaf_node_[l]].center, mls,
+                    &patch) &&
+        patch.origin.allFinite() && patch.normal.allFinite() &&
+        std::isfinite(patch.c[0] + patch.c[1] + patch.c[2] + patch.c[3] + patch.c[4] + patch.c[5]);
+    bool ok = fitted;
     // trusted only where the surface is smooth over the whole neighbourhood: every
     // point's normal within kPatchMaxDegrees of the patch's normal below it (a
     // sharp edge nearby fails this; there the foot depends on the start)
@@ -170,8 +173,8 @@ SphereTree::EBuildError SphereTree::Build(const PointCloud& cloud, const MlsPara
     patch_ok_[l] = ok;
     // how far the patch strays from the MLS surface over the leaf: the largest
     // distance from the MLS projection of its centre and of up to 12 of its points,
-    // spread over it, to the patch; infinite when untrusted or a projection fails
-    double err = ok ? 0.0 : std::numeric_limits<double>::infinity();
+    // spread over it, to the patch; infinite when the fit or a projection fails
+    double err = fitted ? 0.0 : std::numeric_limits<double>::infinity();
     const TreeNode& leaf = nodes_[leaf_node_[l]];
     const int stride = std::max(1, (leaf.count + 11) / 12);
     for (int k = leaf.first - stride; std::isfinite(err) && k < leaf.first + leaf.count; k += stride) {
@@ -183,7 +186,16 @@ SphereTree::EBuildError SphereTree::Build(const PointCloud& cloud, const MlsPara
       }
       err = std::max(err, (proj.point - patch.Closest(proj.point)).norm());
     }
-    patch_error_[l] = err;
+    patch_error_[l] = ok ? err : std::numeric_limits<double>::infinity();
+    // the fit against the whole surface inside the leaf's sphere (where a foot on the
+    // fit is read as near this leaf): the neighbourhood's points in it, which near an
+    // edge include the other face's, far from a fit of this one
+    for (int k = 0; std::isfinite(err) && k < count; ++k) {
+      const Vec3& p = cloud.positions[idx[k]];
+      if ((p - leaf.center).squaredNorm() > leaf.rest_radius * leaf.rest_radius) continue;
+      err = std::max(err, (p - patch.Closest(p)).norm());
+    }
+    fit_error_[l] = err;
   }
 
   hot_.resize(nodes_.size());

@@ -25,6 +25,8 @@
 // deformation state are keyed by them.
 #pragma once
 
+#include <cmath>
+
 #include "core/mls.h"
 #include "core/types.h"
 
@@ -111,6 +113,12 @@ class SphereTree {
   /// Largest distance between a trusted leaf patch and the MLS surface over the
   /// leaf (measured at build at the leaf's points; infinite when not trusted).
   double leaf_patch_error(int leaf) const { return patch_error_[leaf]; }
+  /// The fit at a leaf's centre whether trusted or not (null when it failed), and the
+  /// largest distance between it and the MLS surface over the leaf, measured as for
+  /// leaf_patch_error (infinite when a projection failed): a bound on how far x's
+  /// distance to the surface there can be from its distance to the fit.
+  const MlsPatch* leaf_fit(int leaf) const { return std::isfinite(fit_error_[leaf]) ? &patches_[leaf] : nullptr; }
+  double leaf_fit_error(int leaf) const { return fit_error_[leaf]; }
   double border() const { return border_; }
   double cover_margin() const { return cover_margin_; }
 
@@ -155,6 +163,7 @@ class SphereTree {
   std::vector<MlsPatch> patches_;
   std::vector<uint8_t> patch_ok_;
   std::vector<double> patch_error_;
+  std::vector<double> fit_error_;
   std::vector<double> growth_;      // radius growth of each node over its rest radius (m)
   std::vector<int> dirty_;          // scratch for Refit
   std::vector<uint8_t> dirty_mark_;

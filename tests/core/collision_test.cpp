@@ -178,6 +178,87 @@ TEST(Collision, FingertipAgainstPaperBoxAgreesWithBruteForce) {
   EXPECT_LT(ag.worst_gap_error, 0.15);
 }
 
+// The projection's early stop (CollisionParams::far_stop: points known to stand
+// outside the surface by more than the threshold, from the leaf's fit before any MLS
+// fit or from the fits' last move) gives the contacts of projections run to
+// convergence, bit for bit, on curved capsules (no trusted patch: a phalanx) and the
+// paper's fingertip against boxes, one-pass and two-pass, and it does stop most of
+// the projections that give no contact. What it drops besides are MLS artefacts:
+// points outside the true shape by more than a spacing (millimetres beyond a coarse
+// box's edge) whose converged projection lands on a spurious sheet of the MLS surface.
+TEST(Collision, FarStopLosesNoContact) {
+  ShapeDesc capsule;
+  capsule.type = EShape::Capsule;
+  capsule.radius = 0.009;
+  capsule.half_length = 0.012;
+  auto fc = Make(capsule, 400, 50, 3);
+  auto fbox = Make(test::CubeShape(0.06), 3000, 400, 4);
+  auto ft = Make(test::FingertipEllipsoid(), 2400, 320, 2);
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> u01(0.0, 1.0);
+  CollisionParams stop, full;
+  full.far_stop = false;
+  int contacts = 0, far = 0, empty_projections = 0, artefacts = 0, artefacts_before = 0;
+  for (int k = 0; k < 400; ++k) {
+    const Fixture& q = k % 2 ? *fc : *ft;
+    Vec3 n = Vec3::Zero();
+    n[k % 3] = u01(rng) < 0.5 ? -1.0 : 1.0;
+    Vec3 p = Vec3(u01(rng) - 0.5, u01(rng) - 0.5, u01(rng) - 0.5) * 0.06;
+    p[k % 3] = 0.03 * n[k % 3];
+    // from 3 mm apart to 2 mm deep (reach: the body's largest extent along n, at most)
+    const Mat3 R = RandomRotation(rng);
+    const double reach = q.geom.tree.node(0).radius;
+    const Pose pq{R, p + n * (reach * u01(rng) + 3e-3 - 5e-3 * u01(rng))};
+    for (bool one_pass : {false, true}) {
+      CollisionShape a = q.shape(), b = fbox->shape();
+      a.emits_contacts = !one_pass;  // one-pass: the box's points onto the segment
+      CollisionScratch scratch;
+      scratch.Reserve(fbox->geom.tree.num_leaves(), 100000);
+      ContactBuffer with, without;
+      with.Reserve(100000);
+      without.Reserve(100000);
+      CollisionStats s_with, s_without;
+      CollidePair(0, a, pq, 1, b, Pose{}, stop, &scratch, &with, &s_with);
+      CollidePair(0, a, pq, 1, b, Pose{}, full, &scratch, &without, &s_without);
+      // every contact of the stopped projections is the converged one's, bit for bit
+      std::map<uint64_t, const Contact*> kept;
+      for (const Contact& c : with.items) kept[c.key] = &c;
+      for (const Contact& d : without.items) {
+        const auto it = kept.find(d.key);
+        if (it == kept.end()) {
+          // lost: only an MLS artefact, a "contact" of a point outside the true shape by
+          // more than a spacing (beyond a box's edge the MLS surface has spurious sheets)
+          const Fixture& sf = d.body[1] == 0 ? q : *fbox;
+          const Fixture& qf = d.body[0] == 0 ? q : *fbox;
+          const Pose& ps = d.body[1] == 0 ? pq : Pose{};
+          const Pose& pqq = d.body[0] == 0 ? pq : Pose{};
+          const Vec3 x = ps.ApplyInverse(pqq.Apply(qf.geom.tree.control_point(d.leaf)));
+          EXPECT_GT(AnalyticDistance(sf.shape_desc, x), sf.geom.spacing) << "pose " << k << " leaf " << d.leaf;
+          ++artefacts;
+          continue;
+        }
+        const Contact& c = *it->second;
+        ASSERT_EQ(c.gap, d.gap);
+        ASSERT_EQ(c.normal, d.normal);
+        ASSERT_EQ(c.anchor[1], d.anchor[1]);
+      }
+      EXPECT_EQ(with.items.size() + artefacts - artefacts_before, without.items.size());
+      artefacts_before = artefacts;
+      contacts += static_cast<int>(with.items.size());
+      far += s_with.far;
+      EXPECT_EQ(s_without.far, 0);
+      EXPECT_LE(s_with.fits, s_without.fits);
+      empty_projections += s_without.projections - s_without.contacts - s_without.rejected;
+    }
+  }
+  std::printf("far stop: %d contacts, %d of %d projections without a contact stopped early, %d MLS artefacts "
+              "outside the shapes dropped\n",
+              contacts, far, empty_projections, artefacts);
+  EXPECT_GT(contacts, 5000);
+  EXPECT_LT(artefacts, contacts / 500);
+  EXPECT_GT(far, empty_projections / 2);
+}
+
 TEST(Collision, SphereAgainstSphereAgreesWithBruteForce) {
   ShapeDesc s1;
   s1.type = EShape::Sphere;
