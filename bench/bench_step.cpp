@@ -90,7 +90,7 @@ int RunBenchStep(const BenchOptions& opt) {
   while (w.time < start - 0.5 * w.params.dt) driver->Step();
   std::vector<double> total, collision, space, space_rigid, space_deform, solve, motion, free_motion, iters;
   std::vector<double> contacts, projections, fits, node_pairs, leaf_pairs, traverse, interp;
-  std::vector<double> sides, sides_reused, weights_reused;
+  std::vector<double> sides, sides_reused, weights_reused, cache_hits, cache_builds;
   double residual_max = 0.0;
   int unconverged = 0, rejected = 0;
   const int steps = static_cast<int>(std::llround(window / w.params.dt));
@@ -116,6 +116,8 @@ int RunBenchStep(const BenchOptions& opt) {
     sides.push_back(p.work.w_deform_sides);
     sides_reused.push_back(p.work.w_deform_reused);
     weights_reused.push_back(p.work.weights_reused);
+    cache_hits.push_back(p.collision.cache_hits);
+    cache_builds.push_back(p.collision.cache_builds);
     residual_max = std::max(residual_max, p.residual);
     unconverged += p.converged ? 0 : 1;
     rejected += p.rejected ? 1 : 0;
@@ -135,7 +137,7 @@ int RunBenchStep(const BenchOptions& opt) {
         "\"sphere_tests_median\":%d,\"leaf_pairs_median\":%d,\"projections_median\":%d,\"mls_fits_median\":%d,"
         "\"contact_space_ms_median\":%.4f,\"solve_ms_median\":%.4f,"
         "\"contact_space_rigid_ms_median\":%.4f,\"contact_space_deform_ms_median\":%.4f,"
-        "\"w_deform_sides_median\":%d,\"w_deform_reused_median\":%d,\"weights_reused_median\":%d,"
+        "\"pair_cache_hits_median\":%d,\"pair_cache_builds_median\":%d,\"w_deform_sides_median\":%d,\"w_deform_reused_median\":%d,\"weights_reused_median\":%d,"
         "\"constrained_motion_ms_median\":%.4f,\"gs_iterations_median\":%d,\"gs_iterations_max\":%d,"
         "\"residual_max\":%.3g,\"unconverged_steps\":%d,\"rejected_steps\":%d,\"target_ms\":1.0,"
         "\"step_ms_median\":%.4f}\n",
@@ -143,7 +145,8 @@ int RunBenchStep(const BenchOptions& opt) {
         MedianOf(traverse), MedianOf(interp), static_cast<int>(MedianOf(node_pairs)),
         static_cast<int>(MedianOf(leaf_pairs)), static_cast<int>(MedianOf(projections)),
         static_cast<int>(MedianOf(fits)), MedianOf(space), MedianOf(solve), MedianOf(space_rigid),
-        MedianOf(space_deform), static_cast<int>(MedianOf(sides)), static_cast<int>(MedianOf(sides_reused)),
+        MedianOf(space_deform), static_cast<int>(MedianOf(cache_hits)), static_cast<int>(MedianOf(cache_builds)),
+        static_cast<int>(MedianOf(sides)), static_cast<int>(MedianOf(sides_reused)),
         static_cast<int>(MedianOf(weights_reused)), MedianOf(motion), static_cast<int>(MedianOf(iters)),
         static_cast<int>(*std::max_element(iters.begin(), iters.end())), residual_max, unconverged, rejected,
         step_ms);
@@ -157,6 +160,8 @@ int RunBenchStep(const BenchOptions& opt) {
     std::printf("    sphere tests %d, leaf pairs %d, projections %d, MLS fits %d (medians)\n",
                 static_cast<int>(MedianOf(node_pairs)), static_cast<int>(MedianOf(leaf_pairs)),
                 static_cast<int>(MedianOf(projections)), static_cast<int>(MedianOf(fits)));
+    std::printf("    body pairs served by their leaf-pair cache %d, rebuilt %d (medians)\n",
+                static_cast<int>(MedianOf(cache_hits)), static_cast<int>(MedianOf(cache_builds)));
     std::printf("  contact space (ms)             %8.4f\n", MedianOf(space));
     std::printf("    rigid part: frames, J, W_rigid %8.4f   (every block rebuilt)\n", MedianOf(space_rigid));
     std::printf("    deformable part: W_deform      %8.4f   (%d of %d sides reused, %d interpolations kept, median)\n",
