@@ -61,7 +61,7 @@ bool SizeTrackedHand(Scene* s, const SizingFeed& feed, std::string* note, std::s
     e.message = "'sizes: tracker': no datagram to size the hand from";
   else
     e.message = "'sizes: tracker': none of the " + std::to_string(n) + " datagrams can size the hand: the first: " +
-                first + (n > 1 ? "; the last: " + last : "");
+                first + (last != first ? "; the last: " + last : "");
   *error = e.Format();
   return false;
 }
