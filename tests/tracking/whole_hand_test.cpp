@@ -12,6 +12,7 @@
 #include <fstream>
 #include <functional>
 #include <sstream>
+#include <thread>
 
 #include "core/hand.h"
 #include "scene/scene_file.h"
@@ -472,6 +473,49 @@ TEST(WholeHand, BadFingerBlocksLeaveTheirSegmentsInvalidAndNeverNaN) {
   EXPECT_EQ(JudgeFrame(m.frame, 0, m.scene.tracker, m.sample, &code), ECarries::Missing);
   EXPECT_EQ(code, -1);
   EXPECT_EQ(MissingLabel(m.scene.tracker, code), "hand 0 (right)");
+}
+
+std::string WaitForText(const std::string& file, const std::string& text) {
+  for (int i = 0; i < 600 && test::ReadFile(file).find(text) == std::string::npos; ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  return test::ReadFile(file);
+}
+
+TEST(WholeHand, LiveWaitsForTheTrackerToSizeTheHandAndStopsOnCtrlC) {
+  const std::string dir = test::TempDir("tracker_sizes_live");
+  const std::string scene = dir + "/sized.yaml", log = dir + "/session.lcmlog", out = dir + "/live.txt";
+  std::ofstream(scene) << TrackerSizedText();
+  WriteSession(log, {LeftHanded(SizedDatagram(1.2)), SizedDatagram(1.2)});
+  const int port = test::FreeUdpPort();
+  const std::string waiting = "live: waiting for the tracker's hand 0 on UDP port " + std::to_string(port);
+  {
+    test::Child live({test::Binary(), "live", scene, "--port", std::to_string(port), "--duration", "0.2",
+                      "--publish-rate", "0", "--rt-priority", "0"},
+                     out);
+    ASSERT_TRUE(live.started());
+    ASSERT_NE(WaitForText(out, waiting).find(waiting), std::string::npos) << test::ReadFile(out);
+    const test::Result send = test::Run(test::Binary() + " send " + log + " --port " + std::to_string(port) +
+                                        " --delay 0");
+    ASSERT_EQ(send.code, 0) << send.output;
+    EXPECT_EQ(live.Wait(), 0) << test::ReadFile(out);
+  }
+  const std::string text = test::ReadFile(out);
+  EXPECT_NE(text.find("live: the hand sized from datagram 2 (sizes: tracker; the 1 before it could not: hand 0 is a "
+                      "left hand"),
+            std::string::npos)
+      << text;
+  EXPECT_LT(text.find("sized from datagram"), text.find("live: scene whole_hand_power_grasp")) << text;
+  // nothing sent: Ctrl-C ends the wait with the interrupted exit code
+  test::Child idle({test::Binary(), "live", scene, "--port", std::to_string(port), "--publish-rate", "0",
+                    "--rt-priority", "0"},
+                   out + ".idle");
+  ASSERT_TRUE(idle.started());
+  ASSERT_NE(WaitForText(out + ".idle", waiting).find(waiting), std::string::npos) << test::ReadFile(out + ".idle");
+  idle.Signal(SIGINT);
+  EXPECT_EQ(idle.Wait(), 130) << test::ReadFile(out + ".idle");
+  EXPECT_NE(test::ReadFile(out + ".idle").find("interrupted while waiting for the tracker to size the hand"),
+            std::string::npos)
+      << test::ReadFile(out + ".idle");
 }
 
 // steps the scene on the synthetic whole hand's datagrams at 100 Hz, in simulated time
