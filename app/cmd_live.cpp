@@ -1,8 +1,12 @@
 // `graspsim live [SCENE]`: the fixed-rate simulation (the scene's timestep,
 // 1 kHz by default) on live DTrack input, publishing fingertip and object
 // poses and every contact force on LCM, with a status line. Ctrl-C stops.
+#include <chrono>
+#include <condition_variable>
 #include <cstdio>
+#include <deque>
 #include <memory>
+#include <mutex>
 
 #include "app/cli_help.h"
 #include "app/commands.h"
@@ -37,6 +41,97 @@ struct LiveCmd {
   bool skip_late_solves = false;
 };
 
+// live's input: the scene's tracker section, overridden by the command line
+void InputOptions(const LiveCmd& c, const tracking::TrackerConfig& tc, LiveOptions* o) {
+  o->udp.port = c.port >= 0 ? c.port : tc.port;
+  o->udp.multicast_group = c.multicast.empty() ? tc.multicast_group : c.multicast;
+  o->udp.allowed_senders = c.allow.empty() ? tc.allowed_senders : c.allow;
+  o->udp.controller = c.controller.empty() ? tc.controller : c.controller;
+  o->lcm_url = c.lcm_url.empty() ? tc.lcm_url : c.lcm_url;
+  if (c.tracker != "udp") o->lcm_channel = c.tracker.size() > 4 ? c.tracker.substr(4) : tracking::kRawChannel;
+}
+
+// `sizes: tracker`: live's input is opened before the scene is built and hands
+// its datagrams to the sizing one by one until one sizes the hand; Ctrl-C ends the
+// wait. Destroyed (the socket closed) before the live loop opens its own.
+class SizingWait {
+ public:
+  explicit SizingWait(const LiveCmd& c) : cmd_(c) {}
+  ~SizingWait() {
+    if (source_) source_->Stop();
+  }
+  const std::string& error() const { return error_; }
+
+  bool Next(const tracking::TrackerConfig& tc, std::string* data) {
+    if (!source_ && !Open(tc)) return false;
+    std::unique_lock<std::mutex> lock(mutex_);
+    auto last_note = std::chrono::steady_clock::now();
+    while (queue_.empty()) {
+      if (StopRequested()) return false;
+      arrived_.wait_for(lock, std::chrono::milliseconds(100));
+      // a status line now and then, so that a silent or unusable tracker is visible
+      if (std::chrono::steady_clock::now() - last_note > std::chrono::seconds(5) && queue_.empty()) {
+        std::printf("live: still waiting to size the hand: %llu datagrams so far, none usable yet\n",
+                    static_cast<unsigned long long>(received_));
+        std::fflush(stdout);
+        last_note = std::chrono::steady_clock::now();
+      }
+    }
+    *data = std::move(queue_.front());
+    queue_.pop_front();
+    return true;
+  }
+
+ private:
+  bool Open(const tracking::TrackerConfig& tc) {
+    LiveOptions o;
+    InputOptions(cmd_, tc, &o);
+    source_ = OpenLiveSource(o, &error_);
+    if (!source_) return false;
+    source_->Start([this](const tracking::Datagram& d) {
+      std::lock_guard<std::mutex> lock(mutex_);
+      ++received_;
+      // the sizing reads far slower than a tracker may send: a few waiting are enough
+      if (d.truncated || queue_.size() >= 16) return;
+      queue_.emplace_back(d.data, d.size);
+      arrived_.notify_one();
+    });
+    std::printf("live: waiting for the tracker's hand %d on %s to size the hand (sizes: tracker) ... (Ctrl-C stops)\n",
+                tc.hand_id, source_->Describe().c_str());
+    std::fflush(stdout);
+    return true;
+  }
+
+  const LiveCmd& cmd_;
+  std::unique_ptr<tracking::DatagramSource> source_;
+  std::string error_;
+  std::mutex mutex_;
+  std::condition_variable arrived_;
+  std::deque<std::string> queue_;
+  uint64_t received_ = 0;
+};
+
+// loads the scene, a `sizes: tracker` hand sized from the first usable datagram
+int LoadLiveScene(const LiveCmd& c, TrackedSim* sim) {
+  SizingWait wait(c);
+  std::string error;
+  const SizingFeed feed = [&wait](const tracking::TrackerConfig& tc, std::string* d) { return wait.Next(tc, d); };
+  if (sim->Load(ResolveResource(c.scene), &error, feed)) {
+    if (!sim->sizing_note().empty()) std::printf("live: %s\n", sim->sizing_note().c_str());
+    return kExitOk;
+  }
+  if (!wait.error().empty()) {
+    std::fprintf(stderr, "live: %s\n", wait.error().c_str());
+    return kExitBadInput;
+  }
+  if (StopRequested()) {
+    std::printf("live: interrupted while waiting for the tracker to size the hand\n");
+    return kExitInterrupted;
+  }
+  std::fprintf(stderr, "%s\n", error.c_str());
+  return kExitBadInput;
+}
+
 int Live(const LiveCmd& c) {
   auto sim = std::make_unique<TrackedSim>();
   std::string error;
@@ -44,21 +139,13 @@ int Live(const LiveCmd& c) {
     std::fprintf(stderr, "live: %s\n", error.c_str());
     return kExitUsage;
   }
-  if (!sim->Load(ResolveResource(c.scene), &error)) {
-    std::fprintf(stderr, "%s\n", error.c_str());
-    return kExitBadInput;
-  }
+  if (const int code = LoadLiveScene(c, sim.get()); code != kExitOk) return code;
   // the scene's tracker section, overridden by the command line
   const tracking::TrackerConfig& tc = sim->config();
   LiveOptions o;
-  o.udp.port = c.port >= 0 ? c.port : tc.port;
-  o.udp.multicast_group = c.multicast.empty() ? tc.multicast_group : c.multicast;
-  o.udp.allowed_senders = c.allow.empty() ? tc.allowed_senders : c.allow;
-  o.udp.controller = c.controller.empty() ? tc.controller : c.controller;
+  InputOptions(c, tc, &o);
   o.duration = c.duration;
   o.publish_rate = c.publish_rate >= 0 ? c.publish_rate : tc.publish_rate_hz;
-  o.lcm_url = c.lcm_url.empty() ? tc.lcm_url : c.lcm_url;
-  if (c.tracker != "udp") o.lcm_channel = c.tracker.size() > 4 ? c.tracker.substr(4) : tracking::kRawChannel;
   o.quiet = c.quiet;
   o.pacing.priority = c.rt_priority;
   std::string moved;

@@ -117,10 +117,19 @@ int Replay(const ReplayOptions& opt) {
   }
   auto sim = std::make_unique<TrackedSim>();
   if (!opt.quiet && !opt.json) std::printf("replay: building scene %s ...\n", ResolveResource(scene_path).c_str());
-  if (!sim->Load(ResolveResource(scene_path), &error)) {
-    std::fprintf(stderr, "%s\n", error.c_str());
+  // a hand with `sizes: tracker` takes its sizes from the session's first datagram that has them
+  tracking::SessionReader sizing_reader;
+  SizingFeed sizing = [&](const tracking::TrackerConfig&, std::string* data) {
+    tracking::RecordedDatagram sd;
+    if (!sizing_reader.Next(&sd)) return false;
+    *data = std::move(sd.data);
+    return true;
+  };
+  if (!sizing_reader.Open(log_path, &error) || !sim->Load(ResolveResource(scene_path), &error, sizing)) {
+    std::fprintf(stderr, "replay: %s\n", error.c_str());
     return kExitBadInput;
   }
+  if (!sim->sizing_note().empty() && !opt.json) std::printf("replay: %s\n", sim->sizing_note().c_str());
   World& w = sim->world();
   const double dt = w.params.dt;
   auto arrival = [&](const tracking::RecordedDatagram& d) {

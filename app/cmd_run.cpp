@@ -108,6 +108,7 @@ int Run(const RunOptions& opt) {
     std::fprintf(stderr, "%s\n", error.c_str());
     return kExitBadInput;
   }
+  if (!built->sizes_note.empty()) std::fprintf(stderr, "%s\n", built->sizes_note.c_str());
   if (StopRequested()) return kExitInterrupted;
   World& w = built->world;
   const double build_s = std::chrono::duration<double>(Clock::now() - t0).count();

@@ -43,6 +43,7 @@ void AddSceneCommand(CLI::App& app, int* exit_code) {
         for (const SceneError& e : errors) std::fprintf(stderr, "%s\n", e.Format().c_str());
         continue;
       }
+      if (!built->sizes_note.empty()) std::fprintf(stderr, "%s\n", built->sizes_note.c_str());
       int points = 0, cps = 0;
       for (const SceneBody& b : s.bodies) {
         points += b.spec.geometry.points;

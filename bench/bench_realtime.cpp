@@ -167,7 +167,7 @@ bool RunOnce(const std::string& scene, const Session& session, double seconds, b
              int lead, double step_budget, bool skip_late_solves, bool trace, const std::string& view_address,
              RunResult* out, std::string* error) {
   auto sim = std::make_unique<TrackedSim>();
-  if (!sim->Load(scene, error)) return false;
+  if (!sim->Load(scene, error, SyntheticSizing())) return false;
   World& w = sim->world();
   w.params.budget_may_skip_solve = skip_late_solves;
   const double dt = w.params.dt;

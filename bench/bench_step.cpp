@@ -39,7 +39,7 @@ class Driver {
       return true;
     }
     sim_ = std::make_unique<TrackedSim>();
-    if (!sim_->Load(path, error)) return false;
+    if (!sim_->Load(path, error, SyntheticSizing())) return false;
     hand_ = tracking::SyntheticHandFor(sim_->config());
     hand_.pinch = pinch && hand_.whole_hand;
     return true;

@@ -676,6 +676,13 @@ bool BuildScene(const Scene& scene, BuiltScene* out, std::vector<SceneError>* er
   out->name = scene.name;
   out->duration = scene.duration;
   w.params = scene.params;
+  const SceneTrackedHand& th = scene.tracked_hand;
+  if (th.sizes_from_tracker && !th.sized) {
+    SceneError note = th.sizes_at;
+    note.message = "note: 'sizes: tracker' with no tracker session here: the hand has the default sizes (an average "
+                   "adult hand); replay and live size it from the tracker";
+    out->sizes_note = note.Format();
+  }
   if (!AddBodiesAndFingers(scene, w, errors)) return false;
   w.Finalize();
   for (const Scene::Pair& p : scene.friction_pairs) {

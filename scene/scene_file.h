@@ -7,10 +7,15 @@
 #include <string>
 #include <vector>
 
+#include "core/hand.h"
 #include "scene/script.h"
 #include "scene/yaml_strict.h"
 #include "core/world.h"
 #include "tracking/tracker_config.h"
+
+namespace gs::tracking {
+struct DTrackFrame;
+}
 
 namespace gs::app {
 
@@ -67,6 +72,14 @@ struct SceneTrackedHand {
   bool self_contact = false;  ///< segments of different fingers, and fingers and palm, may touch
   std::vector<SceneHandSegment> segments;
   SceneError at;              ///< the hand section
+  /// `sizes: tracker`: the phalanges take their sizes from the tracker's first usable
+  /// datagram (SizeHandFromFrame) before the scene is built; until then the default sizes
+  bool sizes_from_tracker = false;
+  bool sized = false;         ///< the tracker's sizes were applied
+  SceneError sizes_at;        ///< where `sizes: tracker` was given
+  HandModel model;            ///< the sizes the segments have now
+  Pose start;                 ///< the hand's start pose (position_m, rotation_deg)
+  Vec3 start_flexion = Vec3::Zero();
 };
 
 struct Scene {
@@ -106,6 +119,9 @@ struct BuiltScene {
   tracking::TrackerConfig tracker;  ///< with the fingertips' body indices resolved
   bool has_camera = false;
   SceneCamera camera;
+  /// a `sizes: tracker` hand built before the tracker sized it: a note that its
+  /// sizes are the default ones (FILE:LINE:COL: note: ...), for the command to print
+  std::string sizes_note;
 };
 
 /// The `camera:` section (session/frame_recorder.cpp).
@@ -118,6 +134,13 @@ void ReadDeformation(MapReader& parent, DeformationParams* d);
 void ReadTrackedHand(const YAML::Node& node, const std::string& file, Scene* s, std::vector<SceneError>* errors);
 /// The tracker targets of the tracked hand's segments (after the tracker section).
 void AddTrackedHandTargets(Scene* s, std::vector<SceneError>* errors);
+/// `sizes: tracker`: sizes the phalanx capsules of the scene's tracked hand (length:
+/// the phalanx's, radius: the finger's fingertip radius, tracker units times units_m)
+/// from one parsed datagram, at the start pose. The datagram must carry the
+/// configured hand (id and side), tracked, with every finger the scene has, each
+/// passing the tracker's checks (MapFrame/JudgeFrame) and the scene's capsule limits
+/// (lengths 5 mm to 12 cm, radius 2 mm to 3 cm); else false with why not.
+bool SizeHandFromFrame(const tracking::DTrackFrame& frame, Scene* s, std::string* why);
 /// The pairs of hand segments that may not touch (World::SetCanTouch), once the world is built.
 void ExcludeHandPairs(const Scene& scene, World& w);
 

@@ -4,6 +4,7 @@
 // and placed from the hand model at the start pose (core/hand.h); each segment
 // follows its tracked segment through the tracker's virtual coupling, and the
 // segments of one finger (of the whole hand, without self_contact) never touch.
+#include <cstdio>
 #include <set>
 
 #include "core/hand.h"
@@ -16,6 +17,8 @@ namespace {
 constexpr double kBig = 1e6;
 const char* const kFingerNames[kHandMaxFingers] = {"thumb", "index", "middle", "ring", "little"};
 const char* const kPhalanxNames[kPhalanges] = {"outer", "middle", "inner"};
+// a phalanx capsule's sizes, from the scene or from the tracker (m)
+constexpr double kMinLength = 0.005, kMaxLength = 0.12, kMinRadius = 0.002, kMaxRadius = 0.03;
 
 SceneError At(SceneError at, const std::string& message) {
   at.message = message;
@@ -53,10 +56,20 @@ void ReadDensity(MapReader& parent, const char* key, SegmentDensity* d, Vec3* pa
   m.Finish();
 }
 
-// `sizes: {thumb: {lengths_m: [outer, middle, inner], radius_m}, ...}`
-void ReadSizes(MapReader& parent, HandModel* hm) {
+// `sizes: tracker`, or `sizes: {thumb: {lengths_m: [outer, middle, inner], radius_m}, ...}`
+void ReadSizes(MapReader& parent, SceneTrackedHand* th, HandModel* hm) {
   YAML::Node n = parent.Raw("sizes");
   if (!n) return;
+  if (n.IsScalar()) {
+    if (n.Scalar() == "tracker") {
+      th->sizes_from_tracker = true;
+      th->sizes_at = ErrorAt(parent.file(), n, "");
+    } else {
+      parent.Error(n, "'sizes' must be 'tracker' (the phalanx lengths and fingertip radii the tracker measures) or "
+                      "a map of fingers, like {index: {lengths_m: [0.022, 0.027, 0.043], radius_m: 0.008}}");
+    }
+    return;
+  }
   MapReader m(n, parent.file(), "sizes", parent.errors());
   if (!m.ok()) return;
   for (int f = 0; f < hm->fingers; ++f) {
@@ -65,8 +78,8 @@ void ReadSizes(MapReader& parent, HandModel* hm) {
     MapReader k(fn, parent.file(), kFingerNames[f], parent.errors());
     if (!k.ok()) continue;
     Vec3 l(hm->finger[f].length[0], hm->finger[f].length[1], hm->finger[f].length[2]);
-    k.Vector3("lengths_m", &l, 0.005, 0.12, false);
-    k.Number("radius_m", &hm->finger[f].radius, 0.002, 0.03, false);
+    k.Vector3("lengths_m", &l, kMinLength, kMaxLength, false);
+    k.Number("radius_m", &hm->finger[f].radius, kMinRadius, kMaxRadius, false);
     for (int p = 0; p < kPhalanges; ++p) hm->finger[f].length[p] = l[p];
     k.Finish();
   }
@@ -88,29 +101,65 @@ SceneBody SegmentBody(const std::string& name, const Pose& pose, const SegmentDe
   return b;
 }
 
+std::string PhalanxBodyName(int f, int k) { return std::string(kFingerNames[f]) + "_" + kPhalanxNames[k]; }
+
+// every phalanx capsule's pose, radius and length from the hand's sizes at its start pose
+void ShapePhalanges(Scene* s) {
+  const SceneTrackedHand& th = s->tracked_hand;
+  for (int f = 0; f < th.model.fingers; ++f) {
+    const FingerChain c = ChainFromTip(PoseFinger(th.model, f, th.start, th.start_flexion));
+    for (int k = 0; k < kPhalanges; ++k)
+      for (SceneBody& b : s->bodies) {
+        if (b.spec.name != PhalanxBodyName(f, k)) continue;
+        b.spec.pose = PhalanxCapsulePose(c, static_cast<EPhalanx>(k));
+        b.spec.shape.type = EShape::Capsule;
+        b.spec.shape.radius = th.model.finger[f].radius;
+        b.spec.shape.half_length = 0.5 * th.model.finger[f].length[k];
+      }
+  }
+}
+
 // the palm box and each finger's phalanx capsules, at the start pose
-void AddSegments(const HandModel& hm, const Pose& hand, const Vec3& q, const SegmentDensity& palm,
-                 const SegmentDensity& phalanx, const DeformationParams& def, const SceneError& at, Scene* s) {
+void AddSegments(const SegmentDensity& palm, const SegmentDensity& phalanx, const DeformationParams& def, Scene* s) {
   SceneTrackedHand& th = s->tracked_hand;
-  SceneBody pb = SegmentBody("palm", hand * hm.palm, palm, def, at);
+  const HandModel& hm = th.model;
+  SceneBody pb = SegmentBody("palm", th.start * hm.palm, palm, def, th.at);
   pb.spec.shape.type = EShape::Box;
   pb.spec.shape.half_extents = 0.5 * hm.palm_size;
   s->bodies.push_back(pb);
   th.segments.push_back({"palm", -1, tracking::ESegment::Palm, hm.palm});
   for (int f = 0; f < hm.fingers; ++f) {
-    const FingerChain c = ChainFromTip(PoseFinger(hm, f, hand, q));
     for (int k = 0; k < kPhalanges; ++k) {
-      const std::string name = std::string(kFingerNames[f]) + "_" + kPhalanxNames[k];
-      SceneBody b = SegmentBody(name, PhalanxCapsulePose(c, static_cast<EPhalanx>(k)), phalanx, def, at);
-      b.spec.shape.type = EShape::Capsule;
-      b.spec.shape.radius = hm.finger[f].radius;
-      b.spec.shape.half_length = 0.5 * hm.finger[f].length[k];
-      s->bodies.push_back(b);
+      const std::string name = PhalanxBodyName(f, k);
+      s->bodies.push_back(SegmentBody(name, Pose{}, phalanx, def, th.at));
       const tracking::ESegment seg = k == 0 ? tracking::ESegment::Outer
                                      : k == 1 ? tracking::ESegment::Middle : tracking::ESegment::Inner;
       th.segments.push_back({name, f, seg, Pose{}});
     }
   }
+  ShapePhalanges(s);
+}
+
+// why finger f of a gl hand cannot size a phalanx capsule (the tracker's checks, then
+// the scene's limits), or "": the sizes in metres into *out
+std::string FingerSizeProblem(const tracking::Hand& hand, int f, const tracking::TrackerConfig& c,
+                              HandFingerModel* out) {
+  const tracking::HandFinger& g = hand.fingers[f];
+  char values[160];
+  std::snprintf(values, sizeof values, " (phalanges %g, %g, %g, fingertip radius %g, in tracker units of %g m)",
+                g.phalanx_length[0], g.phalanx_length[1], g.phalanx_length[2], g.tip_radius, c.units_m);
+  const std::string finger = std::string(kFingerNames[f]) + " (finger " + std::to_string(f) + ")";
+  TrackedFinger tf;
+  if (const char* problem = tracking::GlFinger(g, c, &tf)) return finger + ": " + problem + values;
+  out->radius = g.tip_radius * c.units_m;
+  if (!(out->radius >= kMinRadius && out->radius <= kMaxRadius))
+    return finger + ": the fingertip radius is outside the scene's 2 to 30 mm for a phalanx capsule" + values;
+  for (int k = 0; k < kPhalanges; ++k) {
+    out->length[k] = g.phalanx_length[k] * c.units_m;
+    if (!(out->length[k] >= kMinLength && out->length[k] <= kMaxLength))
+      return finger + ": a phalanx length is outside the scene's 5 to 120 mm for a phalanx capsule" + values;
+  }
+  return "";
 }
 
 }  // namespace
@@ -133,13 +182,14 @@ void ReadTrackedHand(const YAML::Node& node, const std::string& file, Scene* s, 
   m.Vector3("position_m", &pos, -kBig, kBig, false);
   m.Vector3("rotation_deg", &rot, -1e4, 1e4, false);
   m.Vector3("start_flexion_rad", &q, -M_PI, M_PI, false);
-  HandModel hm = AverageAdultHand(fingers == 3 ? 3 : 5, th.right);
+  th.model = AverageAdultHand(fingers == 3 ? 3 : 5, th.right);
+  HandModel& hm = th.model;
   // densities: the palm at the paper's fingertip density, a phalanx at the tracked
   // fingertips' (config/tracked_hand.yaml), so that a grasp's step fits in 1 ms
   SegmentDensity palm{2400, 320, 0.1, true}, phalanx{400, 50, 0.02, true};
   ReadDensity(m, "palm", &palm, &hm.palm_size, &hm.palm);
   ReadDensity(m, "phalanx", &phalanx, nullptr, nullptr);
-  ReadSizes(m, &hm);
+  ReadSizes(m, &th, &hm);
   // the skin of config/tracked_hand.yaml's fingertips unless the scene says otherwise
   DeformationParams def;
   def.model = EDeformation::Gaussian;
@@ -148,7 +198,46 @@ void ReadTrackedHand(const YAML::Node& node, const std::string& file, Scene* s, 
   def.influence_radius = 0.003;
   ReadDeformation(m, &def);
   m.Finish();
-  AddSegments(hm, Pose{RotationDeg(rot), pos}, q, palm, phalanx, def, th.at, s);
+  th.start = Pose{RotationDeg(rot), pos};
+  th.start_flexion = q;
+  AddSegments(palm, phalanx, def, s);
+}
+
+bool SizeHandFromFrame(const tracking::DTrackFrame& frame, Scene* s, std::string* why) {
+  SceneTrackedHand& th = s->tracked_hand;
+  const tracking::TrackerConfig& c = s->tracker;
+  const std::string hand_name = "hand " + std::to_string(c.hand_id);
+  const tracking::Hand* hand = frame.FindHand(c.hand_id);
+  if (!hand) {
+    *why = "no gl line with " + hand_name;
+    return false;
+  }
+  if (hand->right != th.right) {
+    *why = hand_name + " is a " + (hand->right ? "right" : "left") + " hand; the scene's is " +
+           (th.right ? "right" : "left");
+    return false;
+  }
+  if (!hand->tracked()) {
+    *why = hand_name + " is not tracked";
+    return false;
+  }
+  if (hand->num_fingers < th.model.fingers) {
+    *why = hand_name + " has " + std::to_string(hand->num_fingers) + " fingers; the scene's hand has " +
+           std::to_string(th.model.fingers);
+    return false;
+  }
+  HandModel sized = th.model;
+  for (int f = 0; f < th.model.fingers; ++f) {
+    const std::string problem = FingerSizeProblem(*hand, f, c, &sized.finger[f]);
+    if (!problem.empty()) {
+      *why = hand_name + ", " + problem;
+      return false;
+    }
+  }
+  th.model = sized;
+  th.sized = true;
+  ShapePhalanges(s);
+  return true;
 }
 
 void AddTrackedHandTargets(Scene* s, std::vector<SceneError>* errors) {

@@ -159,19 +159,22 @@ double Percentile(std::vector<double> v, double p) {
 
 }  // namespace
 
+std::unique_ptr<tracking::DatagramSource> OpenLiveSource(const LiveOptions& opt, std::string* error) {
+  if (opt.lcm_channel.empty()) {
+    auto udp = std::make_unique<tracking::UdpReceiver>();
+    if (!udp->Open(opt.udp, error)) return nullptr;
+    return udp;
+  }
+  auto lcm_in = std::make_unique<tracking::LcmReceiver>();
+  if (!lcm_in->Open(opt.lcm_url, opt.lcm_channel, error)) return nullptr;
+  return lcm_in;
+}
+
 bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::string* error, FrameRecorder* frames) {
   World& w = sim.world();
   const tracking::TrackerConfig cfg = sim.config();
-  std::unique_ptr<tracking::DatagramSource> source;
-  if (opt.lcm_channel.empty()) {
-    auto udp = std::make_unique<tracking::UdpReceiver>();
-    if (!udp->Open(opt.udp, error)) return false;
-    source = std::move(udp);
-  } else {
-    auto lcm_in = std::make_unique<tracking::LcmReceiver>();
-    if (!lcm_in->Open(opt.lcm_url, opt.lcm_channel, error)) return false;
-    source = std::move(lcm_in);
-  }
+  std::unique_ptr<tracking::DatagramSource> source = OpenLiveSource(opt, error);
+  if (!source) return false;
   tracking::DatagramSource& rx = *source;
   // from here on, datagrams sent to the port (or channel) are queued for the receiver (a sender may start)
   std::printf("live: listening on %s\n", rx.Describe().c_str());

@@ -90,6 +90,10 @@ struct LiveStats {
 
 class FrameRecorder;
 
+/// Opens live's tracker input: the UDP socket of opt.udp, or opt.lcm_channel on
+/// opt.lcm_url; nullptr with *error naming what failed.
+std::unique_ptr<tracking::DatagramSource> OpenLiveSource(const LiveOptions& opt, std::string* error);
+
 /// Runs until the duration ends or Ctrl-C. False with a message when the
 /// socket cannot be opened. `frames` (may be null): a started recorder in
 /// ERecordMode::Live, fed on the simulation thread at its frame times.

@@ -2,15 +2,95 @@
 
 #include <cstdio>
 
+#include "tracking/synthetic_hand.h"
+
 namespace gs::app {
 
-bool TrackedSim::Load(const std::string& path, std::string* error) {
-  scene_ = std::make_unique<BuiltScene>();
-  if (!LoadAndBuildScene(path, scene_.get(), error)) return false;
-  if (!scene_->has_tracker) {
+namespace {
+
+std::string Joined(const std::vector<SceneError>& errors) {
+  std::string all;
+  for (const SceneError& e : errors) all += (all.empty() ? "" : "\n") + e.Format();
+  return all;
+}
+
+// "thumb 31.7, 33.9, 45 mm, radius 9.5 mm; index ..."
+std::string SizesText(const HandModel& m) {
+  static const char* const kNames[kHandMaxFingers] = {"thumb", "index", "middle", "ring", "little"};
+  std::string out;
+  char buf[128];
+  for (int f = 0; f < m.fingers; ++f) {
+    const HandFingerModel& g = m.finger[f];
+    std::snprintf(buf, sizeof buf, "%s%s %.1f, %.1f, %.1f mm, radius %.1f mm", f ? "; " : "", kNames[f],
+                  1e3 * g.length[0], 1e3 * g.length[1], 1e3 * g.length[2], 1e3 * g.radius);
+    out += buf;
+  }
+  return out;
+}
+
+}  // namespace
+
+SizingFeed SyntheticSizing() {
+  return [given = false](const tracking::TrackerConfig& c, std::string* data) mutable {
+    if (given) return false;
+    given = true;
+    *data = tracking::SyntheticHandFor(c).Datagram(0.0, 0);
+    return true;
+  };
+}
+
+bool SizeTrackedHand(Scene* s, const SizingFeed& feed, std::string* note, std::string* error) {
+  tracking::DTrackParser parser;
+  tracking::DTrackFrame frame;
+  std::string data, why, first, last;
+  int64_t n = 0;
+  while (feed(s->tracker, &data)) {
+    ++n;
+    parser.Parse(data.data(), data.size(), &frame);
+    if (SizeHandFromFrame(frame, s, &why)) {
+      *note = "the hand sized from datagram " + std::to_string(n) + " (sizes: tracker" +
+              (n > 1 ? "; the " + std::to_string(n - 1) + " before it could not: " + first : "") +
+              "): " + SizesText(s->tracked_hand.model);
+      return true;
+    }
+    if (first.empty()) first = why;
+    last = why;
+  }
+  SceneError e = s->tracked_hand.sizes_at;
+  if (n == 0)
+    e.message = "'sizes: tracker': no datagram to size the hand from";
+  else
+    e.message = "'sizes: tracker': none of the " + std::to_string(n) + " datagrams can size the hand: the first: " +
+                first + (last != first ? "; the last: " + last : "");
+  *error = e.Format();
+  return false;
+}
+
+bool TrackedSim::Load(const std::string& path, std::string* error, const SizingFeed& sizing) {
+  Scene scene;
+  std::vector<SceneError> errors;
+  if (!LoadScene(path, &scene, &errors)) {
+    *error = Joined(errors);
+    return false;
+  }
+  if (!scene.has_tracker) {
     *error = path + ": the scene has no 'tracker:' section (see docs/tracking.md and config/tracked_hand.yaml)";
     return false;
   }
+  sizing_note_.clear();
+  if (scene.tracked_hand.sizes_from_tracker) {
+    if (!sizing) {
+      SceneError e = scene.tracked_hand.sizes_at;
+      e.message = "'sizes: tracker' needs the tracker's datagrams before the scene is built, which this command "
+                  "does not read; give the sizes per finger ('sizes: {thumb: {lengths_m: [...], radius_m: ...}, "
+                  "...}', docs/scene-format.md)";
+      *error = e.Format();
+      return false;
+    }
+    if (!SizeTrackedHand(&scene, sizing, &sizing_note_, error)) return false;
+  }
+  scene_ = std::make_unique<BuiltScene>();
+  if (!BuildScene(scene, scene_.get(), error)) return false;
   follower_.Init(scene_->tracker, scene_->world);
   return true;
 }

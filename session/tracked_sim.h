@@ -4,6 +4,7 @@
 // as they arrive, through the mailbox) and the tracking benchmark.
 #pragma once
 
+#include <functional>
 #include <memory>
 #include <string>
 
@@ -13,10 +14,28 @@
 
 namespace gs::app {
 
+/// Where a `sizes: tracker` hand takes its sizes (docs/scene-format.md): the next
+/// datagram of the session into *data, false when there is none (or on Ctrl-C);
+/// `c` is the scene's tracker section.
+using SizingFeed = std::function<bool(const tracking::TrackerConfig& c, std::string* data)>;
+
+/// The synthetic hand's first datagram (tracking::SyntheticHandFor the scene's
+/// tracker), for the commands that drive a scene with it.
+SizingFeed SyntheticSizing();
+
+/// `sizes: tracker`: sizes the scene's hand from the first datagram of `feed` that
+/// can (SizeHandFromFrame), *note saying which and the sizes; false when none can,
+/// *error naming the scene's line and what was wrong with the datagrams.
+bool SizeTrackedHand(Scene* s, const SizingFeed& feed, std::string* note, std::string* error);
+
 class TrackedSim {
  public:
-  /// Loads and builds the scene; it must have a tracker section.
-  bool Load(const std::string& path, std::string* error);
+  /// Loads and builds the scene; it must have a tracker section. A hand with
+  /// `sizes: tracker` is sized from `sizing` first (refused without one).
+  bool Load(const std::string& path, std::string* error, const SizingFeed& sizing = nullptr);
+
+  /// How a `sizes: tracker` hand was sized (SizeTrackedHand), or "".
+  const std::string& sizing_note() const { return sizing_note_; }
 
   World& world() { return scene_->world; }
   const World& world() const { return scene_->world; }
@@ -41,6 +60,7 @@ class TrackedSim {
 
  private:
   std::unique_ptr<BuiltScene> scene_;
+  std::string sizing_note_;
   tracking::DTrackParser parser_;
   tracking::DTrackFrame frame_;
   tracking::TargetFollower follower_;

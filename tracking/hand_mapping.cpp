@@ -34,19 +34,14 @@ bool SegmentPose(const Hand& hand, const FingertipMap& m, const TrackerConfig& c
   }
   if (m.finger < 0 || m.finger >= hand.num_fingers) return false;
   const HandFinger& f = hand.fingers[m.finger];
-  const Quat q(f.room_rotation);
-  if (!(q.norm() > 0.5)) return false;
   if (m.segment == ESegment::Tip) {
+    if (!(Quat(f.room_rotation).norm() > 0.5)) return false;
     *p = f.room_position;
     *R = f.room_rotation;
     return true;
   }
   TrackedFinger tf;
-  tf.tip = Pose{q.normalized().toRotationMatrix(), f.room_position};
-  tf.tip_radius = f.tip_radius;
-  for (int k = 0; k < kPhalanges; ++k) tf.length[k] = f.phalanx_length[k];
-  for (int k = 0; k < 2; ++k) tf.angle[k] = f.phalanx_angle[k] * (M_PI / 180.0);
-  if (FingerProblem(tf, c.min_phalanx_m / c.units_m, c.max_phalanx_m / c.units_m)) return false;
+  if (GlFinger(f, c, &tf)) return false;
   const EPhalanx k = m.segment == ESegment::Outer ? EPhalanx::Outer
                      : m.segment == ESegment::Middle ? EPhalanx::Middle : EPhalanx::Inner;
   const Pose seg = PhalanxCapsulePose(ChainFromTip(tf), k);
@@ -56,6 +51,16 @@ bool SegmentPose(const Hand& hand, const FingertipMap& m, const TrackerConfig& c
 }
 
 }  // namespace
+
+const char* GlFinger(const HandFinger& f, const TrackerConfig& c, TrackedFinger* out) {
+  const Quat q(f.room_rotation);
+  if (!(q.norm() > 0.5)) return "the outer phalanx's orientation is not a rotation";
+  out->tip = Pose{q.normalized().toRotationMatrix(), f.room_position};
+  out->tip_radius = f.tip_radius;
+  for (int k = 0; k < kPhalanges; ++k) out->length[k] = f.phalanx_length[k];
+  for (int k = 0; k < 2; ++k) out->angle[k] = f.phalanx_angle[k] * (M_PI / 180.0);
+  return FingerProblem(*out, c.min_phalanx_m / c.units_m, c.max_phalanx_m / c.units_m);
+}
 
 void MapFrame(const DTrackFrame& frame, const TrackerConfig& c, TargetSample* out) {
   out->frame = frame.frame;

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <string>
 
+#include "core/hand.h"
 #include "tracking/dtrack_parser.h"
 #include "tracking/tracker_config.h"
 
@@ -31,6 +32,12 @@ Mat3 UpAxisRotation(EUpAxis up);
 
 /// World pose of a tracked pose given in room units.
 Pose RoomToWorld(const TrackerConfig& c, const Vec3& room_position, const Mat3& room_rotation);
+
+/// The tracked finger a gl finger block gives (room frame, tracker units, angles
+/// in radians), or why it cannot be a finger: an outer phalanx orientation that
+/// is not a rotation, or core FingerProblem with lengths outside
+/// [min_phalanx_m, max_phalanx_m]. The check MapFrame applies to every phalanx target.
+const char* GlFinger(const HandFinger& f, const TrackerConfig& c, TrackedFinger* out);
 
 /// Fills `out` (count, valid, pose) from a parsed frame. A phalanx target is the
 /// capsule pose of that phalanx (core/hand.h) in the chain the gl finger gives; a

@@ -137,7 +137,11 @@ TrackedFinger Thumb(const HandModel& m, const Pose& hand, const Grasp& g, bool p
 void SyntheticHand::WholeHandPose(double t, Pose* hand, TrackedFinger* out) const {
   double open = 0, height = 0;
   Phase(*this, t, &open, &height);
-  const HandModel m = AverageAdultHand(fingers, true);
+  HandModel m = AverageAdultHand(fingers, true);
+  for (HandFingerModel& f : m.finger) {
+    for (double& l : f.length) l *= size_scale;
+    f.radius *= size_scale;
+  }
   const Grasp g = GraspGeometry(m, pinch, 1e-3 * box_half_mm, 1e-3 * squeeze_mm);
   // palm down, fingers along the room's +x, the box where the grasp wants it
   hand->R = Eigen::AngleAxisd(M_PI, Vec3::UnitX()).toRotationMatrix();

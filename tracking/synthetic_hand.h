@@ -36,6 +36,7 @@ struct SyntheticHand {
   bool whole_hand = false;     ///< every phalanx and the palm (see above); duration_s is then 2.8 s + hold_s
   double hold_s = 3.0;         ///< whole hand: the hold with the box lifted
   bool pinch = false;          ///< whole hand: a precision pinch (thumb and index tips) instead of the power grasp
+  double size_scale = 1.0;     ///< whole hand: the average adult hand's phalanx lengths and fingertip radii times this
 
   /// A whole hand of `fingers` fingers (duration_s set from hold_s).
   static SyntheticHand WholeHand(int fingers, double hold_s);

@@ -10,13 +10,16 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <sstream>
+#include <thread>
 
 #include "core/hand.h"
 #include "scene/scene_file.h"
 #include "session/tracked_sim.h"
 #include "tracking/dtrack_parser.h"
 #include "tracking/hand_mapping.h"
+#include "tracking/session_log.h"
 #include "tracking/synthetic_hand.h"
 #include "test_util.h"
 
@@ -148,6 +151,202 @@ TEST(WholeHand, BadHandSectionsAreRefusedWithTheirLine) {
                                         &bad_key, &errors));
   ASSERT_FALSE(errors.empty());
   EXPECT_GT(errors[0].line, 0);
+  // `sizes` is 'tracker' or a map of fingers: anything else at its value's line and column
+  errors.clear();
+  app::Scene bogus;
+  const std::string with_bogus = Replace(text, "  self_contact: false\n", "  self_contact: false\n  sizes: bogus\n");
+  EXPECT_FALSE(app::LoadSceneFromString(with_bogus, kScene, &bogus, &errors));
+  ASSERT_EQ(errors.size(), 1u);
+  EXPECT_EQ(errors[0].line, 1 + std::count(with_bogus.begin(), with_bogus.begin() + with_bogus.find("sizes: bogus"), '\n'));
+  EXPECT_EQ(errors[0].column, 10);
+  EXPECT_NE(errors[0].message.find("'sizes' must be 'tracker'"), std::string::npos) << errors[0].Format();
+}
+
+// ---- `sizes: tracker`: the phalanges sized from the tracker's first usable datagram
+
+std::string TrackerSizedText() {
+  return Replace(SceneText(), "  self_contact: false\n", "  self_contact: false\n  sizes: tracker\n");
+}
+
+// the synthetic whole hand's datagram at t with its phalanx lengths and radii times `scale`
+std::string SizedDatagram(double scale, int fingers = 5) {
+  SyntheticHand h = SyntheticHand::WholeHand(fingers, 3.0);
+  h.size_scale = scale;
+  return h.Datagram(0.0, 1);
+}
+
+std::string LeftHanded(std::string d) { return Replace(d, "gl 1 [0 1.000 1 5]", "gl 1 [0 1.000 0 5]"); }
+
+app::SizingFeed Feed(std::vector<std::string> datagrams) {
+  return [datagrams, i = size_t(0)](const TrackerConfig&, std::string* out) mutable {
+    if (i >= datagrams.size()) return false;
+    *out = datagrams[i++];
+    return true;
+  };
+}
+
+bool LoadSized(app::TrackedSim* sim, const std::string& text, const app::SizingFeed& feed, std::string* error) {
+  const std::string path =
+      std::filesystem::temp_directory_path() / ("graspsim_sized_hand_" + std::to_string(getpid()) + ".yaml");
+  std::ofstream(path) << text;
+  const bool ok = sim->Load(path, error, feed);
+  std::filesystem::remove(path);
+  return ok;
+}
+
+// every phalanx capsule has the model's length and radius (to the datagram's 0.001 mm)
+void ExpectPhalanges(const World& w, const HandModel& m, const char* label) {
+  const char* names[5] = {"thumb", "index", "middle", "ring", "little"};
+  const char* phalanges[3] = {"outer", "middle", "inner"};
+  for (int f = 0; f < 5; ++f)
+    for (int k = 0; k < 3; ++k) {
+      const Body& b = w.bodies[BodyIndex(w, std::string(names[f]) + "_" + phalanges[k])];
+      EXPECT_NEAR(b.geometry.shape.half_length, 0.5 * m.finger[f].length[k], 1e-6) << label << names[f] << k;
+      EXPECT_NEAR(b.geometry.shape.radius, m.finger[f].radius, 1e-6) << label << names[f];
+    }
+}
+
+HandModel Scaled(double scale) {
+  HandModel m = AverageAdultHand(5, true);
+  for (HandFingerModel& f : m.finger) {
+    for (double& l : f.length) l *= scale;
+    f.radius *= scale;
+  }
+  return m;
+}
+
+int ValidCount(const TargetSample& s);
+
+TEST(WholeHand, TrackerSizesShapeThePhalangesFromTheSentLengthsAndRadii) {
+  app::TrackedSim sized, mapped;
+  std::string error;
+  ASSERT_TRUE(LoadSized(&sized, TrackerSizedText(), Feed({SizedDatagram(1.2)}), &error)) << error;
+  ExpectPhalanges(sized.world(), Scaled(1.2), "tracker ");
+  EXPECT_NE(sized.sizing_note().find("datagram 1 "), std::string::npos) << sized.sizing_note();
+  // the same datagrams leave a scene without `sizes: tracker` at its default sizes
+  ASSERT_TRUE(LoadSized(&mapped, SceneText(), Feed({SizedDatagram(1.2)}), &error)) << error;
+  ExpectPhalanges(mapped.world(), Scaled(1.0), "default ");
+  EXPECT_TRUE(mapped.sizing_note().empty());
+  // the capsules follow their tracked phalanges: a step on the sizing datagram's targets keeps them finite
+  TargetSample s;
+  const std::string d = SizedDatagram(1.2);
+  sized.Ingest(d.data(), d.size(), false, &s);
+  EXPECT_EQ(ValidCount(s), 16);
+}
+
+TEST(WholeHand, TrackerSizesSkipDatagramsThatCannotSizeTheHand) {
+  app::Scene base;
+  std::vector<app::SceneError> errors;
+  ASSERT_TRUE(app::LoadSceneFromString(TrackerSizedText(), kScene, &base, &errors));
+  DTrackParser parser;
+  DTrackFrame good;
+  const std::string d = SizedDatagram(1.2);
+  ASSERT_EQ(parser.Parse(d.data(), d.size(), &good), 0);
+  struct Case {
+    const char* what;
+    std::function<void(Hand&)> spoil;
+    const char* why;
+  };
+  const std::vector<Case> cases = {
+      {"0 mm", [](Hand& h) { h.fingers[1].phalanx_length[1] = 0.0; }, "index (finger 1): a phalanx length is out of range"},
+      {"1 m", [](Hand& h) { h.fingers[4].phalanx_length[2] = 1000.0; }, "little (finger 4): a phalanx length is out of range"},
+      {"NaN", [](Hand& h) { h.fingers[2].tip_radius = std::nan(""); }, "middle (finger 2): the fingertip radius is out of range"},
+      {"1 mm radius", [](Hand& h) { h.fingers[0].tip_radius = 1.0; },
+       "thumb (finger 0): the fingertip radius is outside the scene's 2 to 30 mm"},
+      {"3 fingers", [](Hand& h) { h.num_fingers = 3; }, "hand 0 has 3 fingers; the scene's hand has 5"},
+      {"left", [](Hand& h) { h.right = false; }, "hand 0 is a left hand; the scene's is right"},
+      {"untracked", [](Hand& h) { h.quality = -1.0; }, "hand 0 is not tracked"},
+  };
+  for (const Case& c : cases) {
+    app::Scene s = base;
+    DTrackFrame f = good;
+    c.spoil(f.hands[0]);
+    std::string why;
+    EXPECT_FALSE(app::SizeHandFromFrame(f, &s, &why)) << c.what;
+    EXPECT_NE(why.find(c.why), std::string::npos) << c.what << ": " << why;
+    EXPECT_FALSE(s.tracked_hand.sized) << c.what;
+    // the scene keeps its default sizes
+    EXPECT_EQ(s.tracked_hand.model.finger[1].length[1], base.tracked_hand.model.finger[1].length[1]) << c.what;
+  }
+  // through the load: the bad ones are skipped, the first usable one sizes the hand
+  app::TrackedSim sim;
+  std::string error;
+  ASSERT_TRUE(LoadSized(&sim, TrackerSizedText(),
+                        Feed({SizedDatagram(1.2, 3), LeftHanded(SizedDatagram(1.2)), SizedDatagram(0.2),
+                              SizedDatagram(1.2), SizedDatagram(1.0)}),
+                        &error))
+      << error;
+  ExpectPhalanges(sim.world(), Scaled(1.2), "after skips ");
+  EXPECT_NE(sim.sizing_note().find("datagram 4 (sizes: tracker; the 3 before it could not: hand 0 has 3 fingers"),
+            std::string::npos)
+      << sim.sizing_note();
+}
+
+TEST(WholeHand, TrackerSizesRefuseASessionWithoutAUsableDatagram) {
+  const std::string text = TrackerSizedText();
+  const int line = 1 + static_cast<int>(std::count(text.begin(), text.begin() + text.find("sizes: tracker"), '\n'));
+  const std::string at = "graspsim_sized_hand_" + std::to_string(getpid()) + ".yaml:" + std::to_string(line) + ":10: ";
+  app::TrackedSim sim;
+  std::string error;
+  EXPECT_FALSE(LoadSized(&sim, text, Feed({SizedDatagram(1.2, 3), SizedDatagram(0.1)}), &error));
+  EXPECT_NE(error.find(at), std::string::npos) << error;
+  EXPECT_NE(error.find("none of the 2 datagrams can size the hand: the first: hand 0 has 3 fingers; the scene's hand "
+                       "has 5; the last: hand 0, thumb (finger 0): a phalanx length is out of range"),
+            std::string::npos)
+      << error;
+  EXPECT_FALSE(LoadSized(&sim, text, Feed({}), &error));
+  EXPECT_NE(error.find("no datagram to size the hand from"), std::string::npos) << error;
+  // a command with no datagrams before the build says so and names the alternative
+  EXPECT_FALSE(LoadSized(&sim, text, nullptr, &error));
+  EXPECT_NE(error.find("give the sizes per finger"), std::string::npos) << error;
+}
+
+void WriteSession(const std::string& path, const std::vector<std::string>& datagrams) {
+  SessionWriter w;
+  std::string error;
+  ASSERT_TRUE(w.Open(path, &error)) << error;
+  for (size_t i = 0; i < datagrams.size(); ++i) {
+    Datagram d;
+    d.data = datagrams[i].data();
+    d.size = datagrams[i].size();
+    d.monotonic_ns = 1000000000 + static_cast<int64_t>(i) * 10000000;
+    d.utime = d.monotonic_ns / 1000;
+    d.sequence = i;
+    std::snprintf(d.source, sizeof(d.source), "test");
+    ASSERT_TRUE(w.Write(d));
+  }
+  w.Close();
+}
+
+TEST(WholeHand, ReplaySizesTheHandFromTheSessionAndSceneCheckNotesTheDefault) {
+  const std::string dir = test::TempDir("tracker_sizes");
+  const std::string scene = dir + "/sized.yaml", good = dir + "/good.lcmlog", bad = dir + "/bad.lcmlog";
+  std::ofstream(scene) << TrackerSizedText();
+  WriteSession(good, {LeftHanded(SizedDatagram(1.2)), SizedDatagram(1.2), SizedDatagram(1.2)});
+  WriteSession(bad, {SizedDatagram(1.2, 3), SizedDatagram(1.2, 3)});
+  const test::Result r = test::Run(test::Binary() + " replay " + scene + " " + good + " --duration 0.003 --quiet");
+  ASSERT_EQ(r.code, 0) << r.output;
+  char index[96];
+  const HandModel m = Scaled(1.2);
+  std::snprintf(index, sizeof index, "index %.1f, %.1f, %.1f mm, radius %.1f mm", 1e3 * m.finger[1].length[0],
+                1e3 * m.finger[1].length[1], 1e3 * m.finger[1].length[2], 1e3 * m.finger[1].radius);
+  EXPECT_NE(r.output.find("replay: the hand sized from datagram 2 (sizes: tracker; the 1 before it could not: hand 0 "
+                          "is a left hand"),
+            std::string::npos)
+      << r.output;
+  EXPECT_NE(r.output.find(index), std::string::npos) << index << "\n" << r.output;
+  const test::Result refused = test::Run(test::Binary() + " replay " + scene + " " + bad + " --duration 0.003");
+  EXPECT_EQ(refused.code, 3) << refused.output;
+  EXPECT_NE(refused.output.find("sized.yaml:"), std::string::npos) << refused.output;
+  EXPECT_NE(refused.output.find("none of the 2 datagrams can size the hand: the first: hand 0 has 3 fingers"),
+            std::string::npos)
+      << refused.output;
+  // without a session the scene builds at the default sizes, and says so
+  const test::Result check = test::Run(test::Binary() + " scene check " + scene);
+  EXPECT_EQ(check.code, 0) << check.output;
+  EXPECT_NE(check.output.find("note: 'sizes: tracker' with no tracker session here: the hand has the default sizes"),
+            std::string::npos)
+      << check.output;
 }
 
 // a parsed synthetic whole-hand datagram and the scene's tracker
@@ -274,6 +473,49 @@ TEST(WholeHand, BadFingerBlocksLeaveTheirSegmentsInvalidAndNeverNaN) {
   EXPECT_EQ(JudgeFrame(m.frame, 0, m.scene.tracker, m.sample, &code), ECarries::Missing);
   EXPECT_EQ(code, -1);
   EXPECT_EQ(MissingLabel(m.scene.tracker, code), "hand 0 (right)");
+}
+
+std::string WaitForText(const std::string& file, const std::string& text) {
+  for (int i = 0; i < 600 && test::ReadFile(file).find(text) == std::string::npos; ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  return test::ReadFile(file);
+}
+
+TEST(WholeHand, LiveWaitsForTheTrackerToSizeTheHandAndStopsOnCtrlC) {
+  const std::string dir = test::TempDir("tracker_sizes_live");
+  const std::string scene = dir + "/sized.yaml", log = dir + "/session.lcmlog", out = dir + "/live.txt";
+  std::ofstream(scene) << TrackerSizedText();
+  WriteSession(log, {LeftHanded(SizedDatagram(1.2)), SizedDatagram(1.2)});
+  const int port = test::FreeUdpPort();
+  const std::string waiting = "live: waiting for the tracker's hand 0 on UDP port " + std::to_string(port);
+  {
+    test::Child live({test::Binary(), "live", scene, "--port", std::to_string(port), "--duration", "0.2",
+                      "--publish-rate", "0", "--rt-priority", "0"},
+                     out);
+    ASSERT_TRUE(live.started());
+    ASSERT_NE(WaitForText(out, waiting).find(waiting), std::string::npos) << test::ReadFile(out);
+    const test::Result send = test::Run(test::Binary() + " send " + log + " --port " + std::to_string(port) +
+                                        " --delay 0");
+    ASSERT_EQ(send.code, 0) << send.output;
+    EXPECT_EQ(live.Wait(), 0) << test::ReadFile(out);
+  }
+  const std::string text = test::ReadFile(out);
+  EXPECT_NE(text.find("live: the hand sized from datagram 2 (sizes: tracker; the 1 before it could not: hand 0 is a "
+                      "left hand"),
+            std::string::npos)
+      << text;
+  EXPECT_LT(text.find("sized from datagram"), text.find("live: scene whole_hand_power_grasp")) << text;
+  // nothing sent: Ctrl-C ends the wait with the interrupted exit code
+  test::Child idle({test::Binary(), "live", scene, "--port", std::to_string(port), "--publish-rate", "0",
+                    "--rt-priority", "0"},
+                   out + ".idle");
+  ASSERT_TRUE(idle.started());
+  ASSERT_NE(WaitForText(out + ".idle", waiting).find(waiting), std::string::npos) << test::ReadFile(out + ".idle");
+  idle.Signal(SIGINT);
+  EXPECT_EQ(idle.Wait(), 130) << test::ReadFile(out + ".idle");
+  EXPECT_NE(test::ReadFile(out + ".idle").find("interrupted while waiting for the tracker to size the hand"),
+            std::string::npos)
+      << test::ReadFile(out + ".idle");
 }
 
 // steps the scene on the synthetic whole hand's datagrams at 100 Hz, in simulated time
