@@ -118,15 +118,20 @@ int Replay(const ReplayOptions& opt) {
   auto sim = std::make_unique<TrackedSim>();
   if (!opt.quiet && !opt.json) std::printf("replay: building scene %s ...\n", ResolveResource(scene_path).c_str());
   // a hand with `sizes: tracker` takes its sizes from the session's first datagram that has them
+  // (the session is opened only then: every other scene gives its own errors first, as
+  // every command that builds it does)
   tracking::SessionReader sizing_reader;
+  std::string log_error;
+  bool opened = false;
   SizingFeed sizing = [&](const tracking::TrackerConfig&, std::string* data) {
+    if (!opened && !(opened = sizing_reader.Open(log_path, &log_error))) return false;
     tracking::RecordedDatagram sd;
     if (!sizing_reader.Next(&sd)) return false;
     *data = std::move(sd.data);
     return true;
   };
-  if (!sizing_reader.Open(log_path, &error) || !sim->Load(ResolveResource(scene_path), &error, sizing)) {
-    std::fprintf(stderr, "replay: %s\n", error.c_str());
+  if (!sim->Load(ResolveResource(scene_path), &error, sizing)) {
+    std::fprintf(stderr, "%s\n", log_error.empty() ? error.c_str() : ("replay: " + log_error).c_str());
     return kExitBadInput;
   }
   if (!sim->sizing_note().empty() && !opt.json) std::printf("replay: %s\n", sim->sizing_note().c_str());

@@ -73,12 +73,14 @@ bool TrackedSim::Load(const std::string& path, std::string* error, const SizingF
     *error = Joined(errors);
     return false;
   }
-  if (!scene.has_tracker) {
-    *error = path + ": the scene has no 'tracker:' section (see docs/tracking.md and config/tracked_hand.yaml)";
-    return false;
-  }
+  const std::string no_tracker =
+      path + ": the scene has no 'tracker:' section (see docs/tracking.md and config/tracked_hand.yaml)";
   sizing_note_.clear();
   if (scene.tracked_hand.sizes_from_tracker) {
+    if (!scene.has_tracker) {
+      *error = no_tracker;
+      return false;
+    }
     if (!sizing) {
       SceneError e = scene.tracked_hand.sizes_at;
       e.message = "'sizes: tracker' needs the tracker's datagrams before the scene is built, which this command "
@@ -89,8 +91,13 @@ bool TrackedSim::Load(const std::string& path, std::string* error, const SizingF
     }
     if (!SizeTrackedHand(&scene, sizing, &sizing_note_, error)) return false;
   }
+  // the scene's own checks come first, as every command that builds it gives them
   scene_ = std::make_unique<BuiltScene>();
   if (!BuildScene(scene, scene_.get(), error)) return false;
+  if (!scene_->has_tracker) {
+    *error = no_tracker;
+    return false;
+  }
   follower_.Init(scene_->tracker, scene_->world);
   return true;
 }
