@@ -13,6 +13,8 @@ using Clock = std::chrono::steady_clock;
 
 // bound on how much one projection fit shrinks the distance to the surface's foot
 constexpr double kContraction = 0.05;
+// a pair cache's first capacity (leaf pairs): its lists grow from there as needed
+constexpr size_t kPairListStart = 4096;
 // ProjectNear's `far` when every projection must run to convergence
 constexpr double kNoFarStop = std::numeric_limits<double>::infinity();
 // subtrees of at most this many nodes (8 leaves) are scanned, not descended, against a leaf
@@ -193,10 +195,15 @@ void CachedLeafPairs(const TraversalNode* na, const TraversalNode* nb, const Sph
   const int* end_b = tb.span_end();
   if (cache->in_b != in_b) cache->Invalidate();
   cache->in_b = in_b;
-  if (cache->pairs.capacity() < cache->limit) {  // once per pair
-    cache->pairs.reserve(cache->limit);
-    cache->wide.pairs.reserve(cache->wide_limit);
-    cache->next.pairs.reserve(cache->wide_limit);
+  if (!cache->reserved) {  // once per pair
+    // A start, not the limits: the lists grow (by doubling) to what the pair needs in
+    // its first steps and then stay. Reserving the limits here (up to 32,768 and 65,536
+    // pairs, 1.3 MB a pair, faulted in at once under mlockall) made the step in which a
+    // hand's segment first neared the object take 3 to 7 ms live.
+    cache->reserved = true;
+    cache->pairs.reserve(std::min<size_t>(cache->limit, kPairListStart));
+    cache->wide.pairs.reserve(std::min<size_t>(cache->wide_limit, 2 * kPairListStart));
+    cache->next.pairs.reserve(std::min<size_t>(cache->wide_limit, 2 * kPairListStart));
     cache->next_stack.reserve(1024);
     cache->next_nodes.reserve((in_b ? ta : tb).nodes().size());
   }

@@ -188,6 +188,7 @@ struct PairCache {
   double wide_used = 0.0; ///< the wide list's margin used as of the last step (m; < 0: not yet seen)
   std::vector<uint64_t> next_stack;        ///< its traversal's node pairs still to descend
   std::vector<TraversalNode> next_nodes;   ///< the moved tree's nodes when it began
+  bool reserved = false;  ///< the lists have their first capacity (they grow from it as the pair needs)
   void Invalidate() {
     valid = false;
     wide.valid = false;
