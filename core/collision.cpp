@@ -195,18 +195,8 @@ void CachedLeafPairs(const TraversalNode* na, const TraversalNode* nb, const Sph
   const int* end_b = tb.span_end();
   if (cache->in_b != in_b) cache->Invalidate();
   cache->in_b = in_b;
-  if (!cache->reserved) {  // once per pair
-    // A start, not the limits: the lists grow (by doubling) to what the pair needs in
-    // its first steps and then stay. Reserving the limits here (up to 32,768 and 65,536
-    // pairs, 1.3 MB a pair, faulted in at once under mlockall) made the step in which a
-    // hand's segment first neared the object take 3 to 7 ms live.
-    cache->reserved = true;
-    cache->pairs.reserve(std::min<size_t>(cache->limit, kPairListStart));
-    cache->wide.pairs.reserve(std::min<size_t>(cache->wide_limit, 2 * kPairListStart));
-    cache->next.pairs.reserve(std::min<size_t>(cache->wide_limit, 2 * kPairListStart));
-    cache->next_stack.reserve(1024);
-    cache->next_nodes.reserve((in_b ? ta : tb).nodes().size());
-  }
+  // once per pair, unless World::Finalize did it (core/collision.h, PairCache)
+  if (!cache->reserved) cache->ReserveStart(std::max(ta.nodes().size(), tb.nodes().size()));
   auto used = [&](const Pose& then, double da, double db) {
     return UsedMargin(moved_pose, then, da, db, extent, ta, tb);
   };
@@ -841,6 +831,24 @@ bool WithinCoupledBorder(const SphereTree& ts, int coupled_leaf, const Vec3& foo
   const TreeNode& node = ts.node(ts.leaf_node(coupled_leaf));
   const double reach = node.rest_radius + ts.border();
   return (foot - node.center).squaredNorm() <= reach * reach;
+}
+
+// A start, not the limits: the lists grow (by doubling) to what the pair needs in its
+// first steps and then stay. Reserving the limits (up to 32,768 and 65,536 pairs, 1.3 MB
+// a pair, faulted in at once under mlockall) in the step of a pair's first traversal made
+// the step in which a hand's segment first neared the object take 3 to 7 ms live.
+void PairCache::ReserveStart(size_t moved_nodes) {
+  reserved = true;
+  pairs.reserve(std::min<size_t>(limit, kPairListStart));
+  wide.pairs.reserve(std::min<size_t>(wide_limit, 2 * kPairListStart));
+  next.pairs.reserve(std::min<size_t>(wide_limit, 2 * kPairListStart));
+  next_stack.reserve(1024);
+  next_nodes.reserve(moved_nodes);
+}
+
+size_t PairCache::StartBytes(size_t moved_nodes) {
+  return 5 * kPairListStart * sizeof(std::pair<int, int>) + 1024 * sizeof(uint64_t) +
+         moved_nodes * sizeof(TraversalNode);
 }
 
 void CollisionStats::Add(const CollisionStats& o) {

@@ -189,6 +189,10 @@ struct PairCache {
   std::vector<uint64_t> next_stack;        ///< its traversal's node pairs still to descend
   std::vector<TraversalNode> next_nodes;   ///< the moved tree's nodes when it began
   bool reserved = false;  ///< the lists have their first capacity (they grow from it as the pair needs)
+  /// Gives the lists their first capacity (moved_nodes: the larger tree's node count).
+  void ReserveStart(size_t moved_nodes);
+  /// The bytes ReserveStart takes.
+  static size_t StartBytes(size_t moved_nodes);
   void Invalidate() {
     valid = false;
     wide.valid = false;

@@ -7,6 +7,10 @@
 
 namespace gs {
 
+// memory the pair caches' first capacity may take at Finalize (bytes); past it, pairs
+// reserve at their first traversal
+constexpr size_t kPairCacheBudget = size_t{64} << 20;
+
 CollisionShape Body::Shape() const {
   CollisionShape s;
   s.is_plane = geometry.is_plane;
@@ -177,6 +181,7 @@ void World::Finalize() {
   // first time the pair is traversed)
   pair_caches.clear();
   pair_caches.resize(static_cast<size_t>(n) * n);
+  size_t reserved = 0;  // bytes of the caches' first capacity reserved here
   for (int i = 0; i < n; ++i)
     for (int j = i + 1; j < n; ++j) {
       const Body& a = bodies[i];
@@ -186,6 +191,15 @@ void World::Finalize() {
       PairCache& c = pair_caches[static_cast<size_t>(i) * n + j];
       c.limit = std::min(all, static_cast<size_t>(4) * params.max_contacts);
       c.wide_limit = std::min(all, static_cast<size_t>(8) * params.max_contacts);
+      // the pairs that can touch get their lists' first memory now, while it fits a
+      // budget (a pile of boxes has thousands of pairs: those reserve at their first
+      // traversal); a step in which a pair first comes near then allocates nothing
+      const size_t nodes = std::max(a.geometry.tree.nodes().size(), b.geometry.tree.nodes().size());
+      const bool can_move = a.articulation >= 0 || b.articulation >= 0;
+      if (can_move && CanTouch(i, j) && reserved + PairCache::StartBytes(nodes) <= kPairCacheBudget) {
+        c.ReserveStart(nodes);
+        reserved += PairCache::StartBytes(nodes);
+      }
     }
   warm_prev.reserve(params.max_contacts);
   warm_next.reserve(params.max_contacts);
