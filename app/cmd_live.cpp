@@ -61,6 +61,11 @@ class SizingWait {
     if (source_) source_->Stop();
   }
   const std::string& error() const { return error_; }
+  /// The UDP port the wait listened on (0: none, or LCM).
+  int udp_port() const {
+    const auto* udp = dynamic_cast<const tracking::UdpReceiver*>(source_.get());
+    return udp ? udp->port() : 0;
+  }
 
   bool Next(const tracking::TrackerConfig& tc, std::string* data) {
     if (!source_ && !Open(tc)) return false;
@@ -112,12 +117,15 @@ class SizingWait {
 };
 
 // loads the scene, a `sizes: tracker` hand sized from the first usable datagram
-int LoadLiveScene(const LiveCmd& c, TrackedSim* sim) {
+// (*sized_port: the UDP port the sizing listened on, which the loop keeps when the
+// command line asked for any free port: the tracker was told that one)
+int LoadLiveScene(const LiveCmd& c, TrackedSim* sim, int* sized_port) {
   SizingWait wait(c);
   std::string error;
   const SizingFeed feed = [&wait](const tracking::TrackerConfig& tc, std::string* d) { return wait.Next(tc, d); };
   if (sim->Load(ResolveResource(c.scene), &error, feed)) {
     if (!sim->sizing_note().empty()) std::printf("live: %s\n", sim->sizing_note().c_str());
+    *sized_port = wait.udp_port();
     return kExitOk;
   }
   if (!wait.error().empty()) {
@@ -139,11 +147,13 @@ int Live(const LiveCmd& c) {
     std::fprintf(stderr, "live: %s\n", error.c_str());
     return kExitUsage;
   }
-  if (const int code = LoadLiveScene(c, sim.get()); code != kExitOk) return code;
+  int sized_port = 0;
+  if (const int code = LoadLiveScene(c, sim.get(), &sized_port); code != kExitOk) return code;
   // the scene's tracker section, overridden by the command line
   const tracking::TrackerConfig& tc = sim->config();
   LiveOptions o;
   InputOptions(c, tc, &o);
+  if (o.lcm_channel.empty() && o.udp.port == 0 && sized_port > 0) o.udp.port = sized_port;
   o.duration = c.duration;
   o.publish_rate = c.publish_rate >= 0 ? c.publish_rate : tc.publish_rate_hz;
   o.quiet = c.quiet;

@@ -516,6 +516,22 @@ TEST(WholeHand, LiveWaitsForTheTrackerToSizeTheHandAndStopsOnCtrlC) {
   EXPECT_NE(test::ReadFile(out + ".idle").find("interrupted while waiting for the tracker to size the hand"),
             std::string::npos)
       << test::ReadFile(out + ".idle");
+  // any free port (--port 0): the loop keeps the port the wait printed, where the tracker sends
+  const std::string any = out + ".any", prefix = "live: waiting for the tracker's hand 0 on UDP port ";
+  test::Child live0({test::Binary(), "live", scene, "--port", "0", "--duration", "0.2", "--publish-rate", "0",
+                     "--rt-priority", "0"},
+                    any);
+  ASSERT_TRUE(live0.started());
+  const std::string said = WaitForText(any, prefix);
+  ASSERT_NE(said.find(prefix), std::string::npos) << test::ReadFile(any);
+  const int chosen = std::atoi(said.c_str() + said.find(prefix) + prefix.size());
+  ASSERT_GT(chosen, 0) << said;
+  const test::Result send0 =
+      test::Run(test::Binary() + " send " + log + " --port " + std::to_string(chosen) + " --delay 0");
+  ASSERT_EQ(send0.code, 0) << send0.output;
+  EXPECT_EQ(live0.Wait(), 0) << test::ReadFile(any);
+  EXPECT_NE(test::ReadFile(any).find("UDP port " + std::to_string(chosen) + ";"), std::string::npos)
+      << test::ReadFile(any);
 }
 
 // steps the scene on the synthetic whole hand's datagrams at 100 Hz, in simulated time
