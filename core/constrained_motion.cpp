@@ -84,11 +84,11 @@ void MoveArticulations(World& w) {
       Finger& f = w.hand.fingers[a.finger];
       f.q = f.q_prev + dq.head<4>();
       f.kin = FingerForward(f.model, w.hand.pose, f.q);
-      if (f.body >= 0) {
-        Body& b = w.bodies[f.body];
-        b.pose = f.kin.tip;
+      ForEachCarried(f, f.kin, [&](int body, const Pose& p) {
+        Body& b = w.bodies[body];
+        b.pose = p;
         b.velocity = (b.pose.t - b.pose_prev.t) / dt;
-      }
+      });
     } else {
       Body& b = w.bodies[a.body];
       b.pose = AdvancePose(b.pose_prev, dq);

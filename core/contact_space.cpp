@@ -236,7 +236,7 @@ void BuildContactSpace(World& w) {
         continue;
       }
       Eigen::Matrix<double, 3, 6> J;
-      J.leftCols<4>() = FingerPointJacobian(w.hand.fingers[a.finger].kin, lever_pt);
+      J.leftCols<4>() = FingerPointJacobian(w.hand.fingers[a.finger].kin, lever_pt, b.finger_link);
       J.rightCols<2>().setZero();
       // the hand's own (prescribed) motion carries the finger
       const Vec3 carried = lever_pt - w.hand.pose_prev.Apply(w.hand.pose.ApplyInverse(lever_pt));
@@ -247,7 +247,8 @@ void BuildContactSpace(World& w) {
       if (!c.touch[s].isZero()) {
         // the normal row at the touching point
         Eigen::Matrix<double, 1, 6> jn = Eigen::Matrix<double, 1, 6>::Zero();
-        jn.leftCols<4>() = n.transpose() * FingerPointJacobian(w.hand.fingers[a.finger].kin, lever_pt + arm);
+        jn.leftCols<4>() =
+            n.transpose() * FingerPointJacobian(w.hand.fingers[a.finger].kin, lever_pt + arm, b.finger_link);
         normal_turn += side.sign * (jn - n.transpose() * J) * a.dq_free;
         jac.h.row(0) = side.sign * jn;
       }

@@ -23,6 +23,7 @@ FingerKinematics FingerForward(const FingerModel& f, const Pose& hand, const Vec
     k.axis[j] = frame.R.col(1);
     k.origin[j] = frame.t;
     frame.R = frame.R * RotY(q[j]);
+    k.link[j - 1] = frame;
     frame.t = frame.t + frame.R.col(0) * f.link_lengths[j - 1];
   }
   // fingertip: offset in the distal frame, shape z along the link x
@@ -31,9 +32,15 @@ FingerKinematics FingerForward(const FingerModel& f, const Pose& hand, const Vec
   return k;
 }
 
-Mat34 FingerPointJacobian(const FingerKinematics& k, const Vec3& p) {
-  Mat34 J;
-  for (int j = 0; j < 4; ++j) J.col(j) = k.axis[j].cross(p - k.origin[j]);
+Mat34 FingerPointJacobian(const FingerKinematics& k, const Vec3& p, int link) {
+  Mat34 J = Mat34::Zero();
+  for (int j = 0; j <= link && j < 4; ++j) J.col(j) = k.axis[j].cross(p - k.origin[j]);
+  return J;
+}
+
+Mat34 FingerAngularJacobian(const FingerKinematics& k, int link) {
+  Mat34 J = Mat34::Zero();
+  for (int j = 0; j <= link && j < 4; ++j) J.col(j) = k.axis[j];
   return J;
 }
 

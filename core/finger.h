@@ -23,6 +23,7 @@ namespace gs {
 
 using Vec4 = Eigen::Matrix<double, 4, 1>;
 using Mat34 = Eigen::Matrix<double, 3, 4>;
+using Mat4 = Eigen::Matrix<double, 4, 4>;
 
 struct FingerModel {
   Pose base;                              ///< base frame in the hand frame
@@ -35,15 +36,22 @@ struct FingerModel {
 struct FingerKinematics {
   std::array<Vec3, 4> axis;    ///< unit joint axes (world)
   std::array<Vec3, 4> origin;  ///< points on the joint axes (world, m)
+  /// link frames (world): link l + 1 (l = 0, 1, 2: proximal to distal) after its
+  /// flexion, origin at its proximal joint, x along the link; joints 0..l + 1 move it
+  std::array<Pose, 3> link;
   Pose tip;                    ///< fingertip body pose (world)
 };
 
 /// Forward kinematics of the finger mounted on a hand at `hand` with joints q.
 FingerKinematics FingerForward(const FingerModel& f, const Pose& hand, const Vec4& q);
 
-/// Point Jacobian: the velocity of a material point at world position p of the
-/// fingertip is J * qdot (one column per joint).
-Mat34 FingerPointJacobian(const FingerKinematics& k, const Vec3& p);
+/// Point Jacobian: the velocity of a material point at world position p of link
+/// `link` (1 proximal .. 3 distal, the fingertip's) is J * qdot (one column per
+/// joint; the columns of the joints past the link are zero).
+Mat34 FingerPointJacobian(const FingerKinematics& k, const Vec3& p, int link = 3);
+
+/// Angular Jacobian of link `link`: its angular velocity is J * qdot.
+Mat34 FingerAngularJacobian(const FingerKinematics& k, int link = 3);
 
 /// Clamps joints to their limits (scene setup, motor targets, inverse kinematics;
 /// in the step the limits are rows of the solve, core/joint_limits.h).

@@ -20,6 +20,71 @@ Vec3 RotationVector(const Mat3& R) {
   return aa.axis() * aa.angle();
 }
 
+// A drive's damped spring at a body pose, implicit: the force and torque it
+// exerts there, and the stiffness (K + D/dt) and angular stiffness (K_a + D_a/dt)
+// the step's motion meets (gains in the target frame, the spring within max_force).
+struct DriveTerms {
+  Mat3 linear, angular;
+  Vec3 force, torque;
+};
+
+DriveTerms Terms(const Drive& d, const Pose& pose, double dt) {
+  const Mat3& Rt = d.target.R;
+  const Mat3 K = Rt * d.stiffness.asDiagonal() * Rt.transpose();
+  const Mat3 Ka = Rt * d.angular_stiffness.asDiagonal() * Rt.transpose();
+  Vec3 spring = K * (d.target.t - pose.t);
+  const double mag = spring.norm();
+  if (mag > d.max_force) spring *= d.max_force / mag;
+  DriveTerms t;
+  t.linear = K + Rt * d.damping.asDiagonal() * Rt.transpose() / dt;
+  t.angular = Ka + Rt * d.angular_damping.asDiagonal() * Rt.transpose() / dt;
+  t.force = spring + Rt * d.force;
+  t.torque = Ka * RotationVector(d.target.R * pose.R.transpose());
+  return t;
+}
+
+// A segment's drive (virtual coupling) on a finger, in joint space: the spring's
+// force F and torque T at the segment's origin act on the joints as J^T (F, T), and
+// its stiffness enters the joint-space matrix as J^T K J (the quasi-static model:
+// the segment's weight acts, its inertia does not).
+void AddSegmentDrive(const World& w, const Body& b, const Pose& pose, const FingerKinematics& k, int link, Mat4* A,
+                     Vec4* g) {
+  if (!b.drive.enabled) return;
+  const DriveTerms d = Terms(b.drive, pose, w.params.dt);
+  const Mat34 Jl = FingerPointJacobian(k, pose.t, link);
+  const Mat34 Ja = FingerAngularJacobian(k, link);
+  *A += Jl.transpose() * d.linear * Jl + Ja.transpose() * d.angular * Ja;
+  *g += Jl.transpose() * (d.force + b.mass * w.params.gravity) + Ja.transpose() * d.torque;
+}
+
+// A finger in joint space: motors as implicit PD toward the joint targets, plus
+// the drives of the segments it carries; A^-1 kept for the solve.
+void FingerFreeMotion(const World& w, Finger& f, Articulation* a) {
+  const double dt = w.params.dt;
+  Mat4 A = Mat4::Zero();
+  Vec4 g = Vec4::Zero();
+  for (int j = 0; j < 4; ++j) {
+    A(j, j) = (f.joint_damping + f.motor_damping) / dt + f.motor_stiffness;
+    g[j] = f.motor_stiffness * (f.q_target[j] - f.q[j]);
+  }
+  const bool driven = f.segment_body[0] >= 0 || f.segment_body[1] >= 0 || f.segment_body[2] >= 0;
+  if (driven) {
+    // at the configuration the step starts from (the hand already moved)
+    const FingerKinematics k = FingerForward(f.model, w.hand.pose, f.q);
+    for (int l = 0; l < 3; ++l)
+      if (f.segment_body[l] >= 0)
+        AddSegmentDrive(w, w.bodies[f.segment_body[l]], k.link[l] * f.segment_offset[l], k, l + 1, &A, &g);
+  }
+  a->a_inv.setZero();
+  a->dq_free.setZero();
+  if (driven) {
+    a->a_inv.topLeftCorner<4, 4>() = A.inverse();
+  } else {
+    for (int j = 0; j < 4; ++j) a->a_inv(j, j) = 1.0 / A(j, j);
+  }
+  a->dq_free.head<4>() = a->a_inv.topLeftCorner<4, 4>() * g;
+}
+
 }  // namespace
 
 void MarkRejected(World& w, const char* reason) {
@@ -45,18 +110,13 @@ void FreeMotion(World& w) {
   // pose_prev and q_prev hold the configuration at the end of the last step;
   // kinematic bodies and the hand may already have been moved to this step's pose
 
+  // a hand carried by its palm starts the step where the palm ended the last one
+  if (w.hand.carrier >= 0) w.hand.pose = w.bodies[w.hand.carrier].pose_prev * w.hand.carrier_offset;
+
   for (Articulation& a : w.articulations) {
     a.dq.setZero();
     if (a.finger >= 0) {
-      // finger: diagonal joint-space mobility with the motor stiffness implicit
-      Finger& f = w.hand.fingers[a.finger];
-      a.a_inv.setZero();
-      a.dq_free.setZero();
-      for (int j = 0; j < 4; ++j) {
-        const double A = (f.joint_damping + f.motor_damping) / dt + f.motor_stiffness;
-        a.a_inv(j, j) = 1.0 / A;
-        a.dq_free[j] = f.motor_stiffness * (f.q_target[j] - f.q[j]) / A;
-      }
+      FingerFreeMotion(w, w.hand.fingers[a.finger], &a);
       continue;
     }
     Body& b = w.bodies[a.body];
@@ -73,19 +133,12 @@ void FreeMotion(World& w) {
       g_ang += I_world * b.angular_velocity / dt;
     }
     if (b.drive.enabled) {
-      // damped spring to the target pose, gains in the target frame, implicit
-      const Mat3& Rt = b.drive.target.R;
-      const Mat3 K = Rt * b.drive.stiffness.asDiagonal() * Rt.transpose();
-      const Mat3 D = Rt * b.drive.damping.asDiagonal() * Rt.transpose();
-      const Mat3 Ka = Rt * b.drive.angular_stiffness.asDiagonal() * Rt.transpose();
-      const Mat3 Da = Rt * b.drive.angular_damping.asDiagonal() * Rt.transpose();
-      A_lin += K + D / dt;
-      A_ang += Ka + Da / dt;
-      Vec3 spring = K * (b.drive.target.t - b.pose.t);
-      const double mag = spring.norm();
-      if (mag > b.drive.max_force) spring *= b.drive.max_force / mag;
-      g_lin += spring + Rt * b.drive.force;
-      g_ang += Ka * RotationVector(b.drive.target.R * b.pose.R.transpose());
+      // damped spring to the target pose, implicit
+      const DriveTerms d = Terms(b.drive, b.pose, dt);
+      A_lin += d.linear;
+      A_ang += d.angular;
+      g_lin += d.force;
+      g_ang += d.torque;
     }
     a.a_inv.setZero();
     a.a_inv.topLeftCorner<3, 3>() = A_lin.inverse();
@@ -120,7 +173,7 @@ void FreeMotion(World& w) {
       Finger& f = w.hand.fingers[a.finger];
       const Vec4 q_free = finite ? Vec4(f.q + a.dq_free.head<4>()) : f.q;
       f.kin = FingerForward(f.model, w.hand.pose, q_free);
-      if (f.body >= 0) w.bodies[f.body].pose = f.kin.tip;
+      ForEachCarried(f, f.kin, [&](int body, const Pose& p) { w.bodies[body].pose = p; });
     } else {
       Body& b = w.bodies[a.body];
       b.pose = finite ? AdvancePose(b.pose_prev, a.dq_free) : b.pose_prev;

@@ -351,21 +351,22 @@ void ClearAccumulators(World& w) {
     for (Vec3& u : b.u_acc) u.setZero();
 }
 
-// The groups through which row c couples to others (out: up to two; returns how
-// many): a contact side's body when it moves or deforms; a limit row's finger, by
-// its fingertip body (where its contacts are), or by the articulation alone
-// (index bodies + articulation) when it carries none.
-int CouplingGroups(const World& w, int c, int out[2]) {
+// The groups through which row c couples to others (out: up to four; returns how
+// many): a contact side's body when it deforms, its articulation when it moves
+// (index bodies + articulation: a finger's bodies all move its one articulation);
+// a limit row's articulation.
+int CouplingGroups(const World& w, int c, int out[4]) {
   const int contacts = static_cast<int>(w.rows.size());
+  const int bodies = static_cast<int>(w.bodies.size());
   if (c >= contacts) {
-    const LimitRow& l = w.limit_rows[c - contacts];
-    const int body = w.articulations[l.articulation].body;
-    out[0] = body >= 0 ? body : static_cast<int>(w.bodies.size()) + l.articulation;
+    out[0] = bodies + w.limit_rows[c - contacts].articulation;
     return 1;
   }
   int k = 0;
-  for (const ContactSide& s : w.rows[c].side)
-    if (s.articulation >= 0 || s.inf_count > 0) out[k++] = s.body;
+  for (const ContactSide& s : w.rows[c].side) {
+    if (s.inf_count > 0) out[k++] = s.body;
+    if (s.articulation >= 0) out[k++] = bodies + s.articulation;
+  }
   return k;
 }
 
@@ -385,7 +386,7 @@ void AssembleContactProblem(World& w, FcProblem* p, Eigen::VectorXd* r) {
   }
   // rows grouped by the bodies (or fingers) through which they couple
   std::vector<std::vector<int>> by_group(w.bodies.size() + w.articulations.size());
-  int groups[2];
+  int groups[4];
   for (int c = 0; c < n; ++c)
     for (int k = CouplingGroups(w, c, groups); k-- > 0;) by_group[groups[k]].push_back(c);
   ClearAccumulators(w);

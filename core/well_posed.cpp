@@ -122,11 +122,18 @@ std::string CheckFinger(const Finger& f) {
   if (!f.q.allFinite() || !f.q_target.allFinite()) return Fmt("finger '%s': joints are not finite", f.name);
   if (!f.model.base.t.allFinite() || !IsRotation(f.model.base.R) || !f.model.tip_offset.allFinite())
     return Fmt("finger '%s': base pose or fingertip offset is not finite", f.name);
-  if (!Finite(f.motor_stiffness) || f.motor_stiffness <= 0.0)
+  const bool segments = f.segment_body[0] >= 0 || f.segment_body[1] >= 0 || f.segment_body[2] >= 0;
+  if (!segments && (!Finite(f.motor_stiffness) || f.motor_stiffness <= 0.0))
     return Fmt("finger '%s': motor stiffness must be finite and > 0 N m/rad, got %g", f.name, f.motor_stiffness);
+  if (!Finite(f.motor_stiffness) || f.motor_stiffness < 0.0)
+    return Fmt("finger '%s': motor stiffness must be finite and >= 0 N m/rad, got %g", f.name, f.motor_stiffness);
   if (!Finite(f.motor_damping) || f.motor_damping < 0.0 || !Finite(f.joint_damping) || f.joint_damping < 0.0)
     return Fmt("finger '%s': motor and joint damping must be finite and >= 0 (got %g and %g N m s/rad)", f.name,
                f.motor_damping, f.joint_damping);
+  // a finger driven by its segments' springs alone goes limp when they release: its
+  // joints then need damping to keep the joint-space matrix invertible
+  if (segments && f.motor_stiffness + f.motor_damping + f.joint_damping <= 0.0)
+    return Fmt("finger '%s': a finger driven by its segments needs motor stiffness or joint damping > 0", f.name);
   return "";
 }
 

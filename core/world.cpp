@@ -154,6 +154,7 @@ void World::Finalize() {
     b.pose_detected = b.sleep_pose = b.pose;
     b.core_radius = b.geometry.is_plane ? 0.0 : CoreRadius(b.geometry);
   }
+  if (hand.carrier >= 0) hand.pose = bodies[hand.carrier].pose * hand.carrier_offset;
   for (size_t f = 0; f < hand.fingers.size(); ++f) {
     Finger& fg = hand.fingers[f];
     Articulation a;
@@ -166,10 +167,18 @@ void World::Finalize() {
       bodies[fg.body].finger = static_cast<int>(f);
       bodies[fg.body].motion = EMotion::Fingertip;
     }
+    for (int l = 0; l < 3; ++l) {
+      if (fg.segment_body[l] < 0) continue;
+      Body& sb = bodies[fg.segment_body[l]];
+      sb.articulation = fg.articulation;
+      sb.finger = static_cast<int>(f);
+      sb.finger_link = l + 1;
+      sb.motion = EMotion::Fingertip;
+    }
     articulations.push_back(a);
     fg.q_prev = fg.q;
     fg.kin = FingerForward(fg.model, hand.pose, fg.q);
-    if (fg.body >= 0) bodies[fg.body].pose = bodies[fg.body].pose_prev = fg.kin.tip;
+    ForEachCarried(fg, fg.kin, [&](int body, const Pose& p) { bodies[body].pose = bodies[body].pose_prev = p; });
   }
   hand.pose_prev = hand.pose;
 

@@ -103,7 +103,8 @@ struct Body {
   }
   std::vector<int> inf_slot;  ///< contact-space scratch: slot of a control point in a merged influence, -1
   bool emits_contacts = true; ///< false: one-pass contact, only other bodies' control points touch this one
-  int finger = -1;            ///< for a fingertip, its finger
+  int finger = -1;            ///< for a body a finger carries (its fingertip or a segment), that finger
+  int finger_link = 3;        ///< and the link that carries it (1 proximal .. 3 distal): joints 0..finger_link move it
   int articulation = -1;      ///< index into World::articulations, -1 when it has no dofs
   // sleep (SleepParams): a free body at rest skips collision detection
   bool asleep = false;
@@ -126,6 +127,12 @@ struct Finger {
   double motor_damping = 0.0;    ///< N m s/rad
   double joint_damping = 0.0;    ///< B of the quasi-static model (N m s/rad)
   int body = -1;                 ///< the fingertip body
+  /// Segment bodies carried by the links (a whole hand's phalanges; -1: none):
+  /// segment_body[l] rides on link l + 1 at pose link * segment_offset[l]. A segment
+  /// with its Drive enabled pulls the finger through that damped spring, mapped to
+  /// the joints by the link's Jacobian (core/free_motion.cpp), as the motors do.
+  std::array<int, 3> segment_body{-1, -1, -1};
+  std::array<Pose, 3> segment_offset;
   int articulation = -1;
   FingerKinematics kin;          ///< at the free-motion configuration during a step
 };
@@ -133,7 +140,22 @@ struct Finger {
 struct Hand {
   Pose pose, pose_prev;
   std::vector<Finger> fingers;
+  /// A free body that carries the hand (a whole hand's palm; -1: the hand pose is
+  /// prescribed): each step starts with pose = carrier's pose * carrier_offset, so
+  /// the fingers ride on the palm with one step of lag, and their contact forces do
+  /// not push the palm (docs/solver.md, "Articulated whole hand").
+  int carrier = -1;
+  Pose carrier_offset;
 };
+
+/// Calls fn(body, pose) for every body finger f carries at kinematics k: its
+/// fingertip (link 3, at k.tip) and its segments (at their link * offset).
+template <class Fn>
+void ForEachCarried(const Finger& f, const FingerKinematics& k, Fn&& fn) {
+  if (f.body >= 0) fn(f.body, k.tip);
+  for (int l = 0; l < 3; ++l)
+    if (f.segment_body[l] >= 0) fn(f.segment_body[l], k.link[l] * f.segment_offset[l]);
+}
 
 /// The generalized coordinates of a free body or a finger, as the solver sees them.
 struct Articulation {

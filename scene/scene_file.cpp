@@ -591,6 +591,7 @@ bool AddBodiesAndFingers(const Scene& scene, World& w, std::vector<SceneError>* 
     f.body = tip;
     w.hand.fingers.push_back(f);
   }
+  if (ok) AddTrackedFingers(scene, w);
   return ok;
 }
 

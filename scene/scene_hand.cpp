@@ -4,6 +4,7 @@
 // and placed from the hand model at the start pose (core/hand.h); each segment
 // follows its tracked segment through the tracker's virtual coupling, and the
 // segments of one finger (of the whole hand, without self_contact) never touch.
+#include <array>
 #include <cstdio>
 #include <set>
 
@@ -131,7 +132,9 @@ void AddSegments(const SegmentDensity& palm, const SegmentDensity& phalanx, cons
   for (int f = 0; f < hm.fingers; ++f) {
     for (int k = 0; k < kPhalanges; ++k) {
       const std::string name = PhalanxBodyName(f, k);
-      s->bodies.push_back(SegmentBody(name, Pose{}, phalanx, def, th.at));
+      SceneBody b = SegmentBody(name, Pose{}, phalanx, def, th.at);
+      b.spec.motion = EMotion::Fingertip;  // carried by its finger's joints (AddTrackedFingers)
+      s->bodies.push_back(b);
       const tracking::ESegment seg = k == 0 ? tracking::ESegment::Outer
                                      : k == 1 ? tracking::ESegment::Middle : tracking::ESegment::Inner;
       th.segments.push_back({name, f, seg, Pose{}});
@@ -268,6 +271,63 @@ void AddTrackedHandTargets(Scene* s, std::vector<SceneError>* errors) {
     f.segment = seg.segment;
     f.offset = seg.offset;
     c.fingertips.push_back(f);
+  }
+}
+
+namespace {
+
+// anatomical joint ranges (rad) of (abduction, root, middle-inner, outer-middle):
+// flexion positive toward the pad, a little hyperextension allowed at each joint
+constexpr std::array<std::array<double, 2>, 4> kFingerLimits{{{-0.35, 0.35}, {-0.5, 1.75}, {-0.2, 1.95}, {-0.35, 1.6}}};
+constexpr std::array<std::array<double, 2>, 4> kThumbLimits{{{-0.6, 0.6}, {-1.0, 1.6}, {-0.3, 2.0}, {-0.5, 2.0}}};
+// joint damping of a whole-hand finger (N m s/rad): small against the couplings'
+// (8 N s/m at a 5 cm lever: 0.02), it keeps a finger whose segments all released
+// from going singular
+constexpr double kJointDamping = 1e-4;
+
+int BodyIndex(const World& w, const std::string& name) {
+  for (size_t i = 0; i < w.bodies.size(); ++i)
+    if (w.bodies[i].name == name) return static_cast<int>(i);
+  return -1;
+}
+
+// finger f of the hand model as a core Finger: the base at its root joint (the
+// inner phalanx frame turned half a turn about x, so that the finger's flexions
+// curl toward the pad as the tracker's do), links inner, middle, outer, each
+// carrying its phalanx capsule where the start pose puts it
+Finger TrackedFingerJoints(const SceneTrackedHand& th, int f, const std::array<int, 3>& segment_bodies) {
+  const HandFingerModel& fm = th.model.finger[f];
+  Finger fg;
+  fg.name = kFingerNames[f];
+  fg.model.base = Pose{fm.root.R * Eigen::AngleAxisd(M_PI, Vec3::UnitX()).toRotationMatrix(), fm.root.t};
+  fg.model.link_lengths = {fm.length[2], fm.length[1], fm.length[0]};
+  fg.model.limits = f == 0 ? kThumbLimits : kFingerLimits;
+  fg.q = fg.q_target = ClampJoints(fg.model, Vec4(0.0, th.start_flexion.x(), th.start_flexion.y(), th.start_flexion.z()));
+  fg.motor_stiffness = fg.motor_damping = 0.0;
+  fg.joint_damping = kJointDamping;
+  const FingerKinematics k = FingerForward(fg.model, th.start, fg.q);
+  const Vec3 q_model(fg.q[1], fg.q[2], fg.q[3]);
+  const FingerChain c = ChainFromTip(PoseFinger(th.model, f, th.start, q_model));
+  for (int l = 0; l < 3; ++l) {
+    fg.segment_body[l] = segment_bodies[l];
+    fg.segment_offset[l] = k.link[l].Inverse() * PhalanxCapsulePose(c, static_cast<EPhalanx>(2 - l));
+  }
+  return fg;
+}
+
+}  // namespace
+
+void AddTrackedFingers(const Scene& scene, World& w) {
+  const SceneTrackedHand& th = scene.tracked_hand;
+  if (!th.enabled) return;
+  w.hand.pose = th.start;
+  w.hand.carrier = BodyIndex(w, "palm");
+  w.hand.carrier_offset = th.model.palm.Inverse();
+  for (int f = 0; f < th.model.fingers; ++f) {
+    std::array<int, 3> bodies;
+    for (int l = 0; l < 3; ++l) bodies[l] = BodyIndex(w, PhalanxBodyName(f, 2 - l));
+    if (bodies[0] < 0 || bodies[1] < 0 || bodies[2] < 0) continue;
+    w.hand.fingers.push_back(TrackedFingerJoints(th, f, bodies));
   }
 }
 

@@ -134,10 +134,14 @@ std::string PassThroughText(const World& w) {
   return msg;
 }
 
+// a body that moves under the step's forces: a free body, or one a finger carries
+// (a fingertip, a whole hand's phalanx)
+bool Moving(const Body& b) { return b.motion == EMotion::Free || b.motion == EMotion::Fingertip; }
+
 void WriteTrajectoryHeader(std::ostream& o, const World& w) {
   o << "step,t_s";
   for (const Body& b : w.bodies)
-    if (b.motion == EMotion::Free)
+    if (Moving(b))
       for (const char* c : {"x_m", "y_m", "z_m", "qw", "qx", "qy", "qz"}) o << "," << b.name << "_" << c;
   o << "\n";
 }
@@ -146,7 +150,7 @@ void WriteTrajectoryRow(std::ostream& o, const World& w) {
   o << w.step_count;
   Cell(o, w.time, ",%.17g");
   for (const Body& b : w.bodies) {
-    if (b.motion != EMotion::Free) continue;
+    if (!Moving(b)) continue;
     const Quat q(b.pose.R);
     for (double v : {b.pose.t.x(), b.pose.t.y(), b.pose.t.z(), q.w(), q.x(), q.y(), q.z()}) Cell(o, v, ",%.17g");
   }

@@ -46,6 +46,37 @@ TEST(Finger, JacobianMatchesFiniteDifferences) {
   }
 }
 
+TEST(Finger, LinkJacobiansMatchFiniteDifferencesAndIgnoreLaterJoints) {
+  const FingerModel f = Index();
+  const Pose hand = Pose::FromAxisAngle(Vec3(1, -2, 3), 0.5, Vec3(0.1, -0.2, 0.3));
+  const Vec4 q(0.15, 0.4, 0.6, 0.3);
+  const FingerKinematics k = FingerForward(f, hand, q);
+  const Vec3 local(0.004, -0.003, 0.002);  // a material point of each link, off its axis
+  const double eps = 1e-7;
+  for (int link = 1; link <= 3; ++link) {
+    const Mat34 J = FingerPointJacobian(k, k.link[link - 1].Apply(local), link);
+    const Mat34 Ja = FingerAngularJacobian(k, link);
+    for (int j = 0; j < 4; ++j) {
+      Vec4 qp = q, qm = q;
+      qp[j] += eps;
+      qm[j] -= eps;
+      const Pose a = FingerForward(f, hand, qp).link[link - 1], b = FingerForward(f, hand, qm).link[link - 1];
+      const Vec3 fd = (a.Apply(local) - b.Apply(local)) / (2 * eps);
+      const Eigen::AngleAxisd turn(a.R * b.R.transpose());
+      const Vec3 fd_angular = turn.axis() * turn.angle() / (2 * eps);
+      EXPECT_NEAR((fd - J.col(j)).norm(), 0.0, 1e-7) << "link " << link << " joint " << j;
+      EXPECT_NEAR((fd_angular - Ja.col(j)).norm(), 0.0, 1e-6) << "link " << link << " joint " << j;
+      // a joint past the link does not move it
+      if (j > link) {
+        EXPECT_EQ(J.col(j).norm() + Ja.col(j).norm(), 0.0);
+      }
+    }
+  }
+  // the links chain: link l + 1 starts where link l ends
+  for (int l = 0; l < 2; ++l)
+    EXPECT_NEAR((k.link[l].t + f.link_lengths[l] * k.link[l].R.col(0) - k.link[l + 1].t).norm(), 0.0, 1e-15);
+}
+
 TEST(Finger, InverseKinematicsReachesReachableTargetsWithinLimits) {
   const FingerModel f = Index();
   const Vec4 q_true(0.2, 0.5, 0.7, 0.4);

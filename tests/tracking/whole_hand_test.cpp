@@ -15,6 +15,7 @@
 #include <thread>
 
 #include "core/hand.h"
+#include "core/virtual_coupling.h"
 #include "scene/scene_file.h"
 #include "session/tracked_sim.h"
 #include "tracking/dtrack_parser.h"
@@ -589,6 +590,88 @@ bool AllFinite(const World& w) {
   for (const Body& b : w.bodies)
     if (!b.pose.t.allFinite() || !b.pose.R.allFinite() || !b.velocity.allFinite()) return false;
   return true;
+}
+
+// the two ends of a phalanx capsule (its axis is the body's z, length the link's)
+void CapsuleEnds(const Body& b, double length, Vec3* proximal, Vec3* distal) {
+  *proximal = b.pose.t - 0.5 * length * b.pose.R.col(2);
+  *distal = b.pose.t + 0.5 * length * b.pose.R.col(2);
+}
+
+TEST(WholeHand, PhalangesStayJoinedAndRootedOnThePalmWhileTheBoxStopsThem) {
+  Session s(SceneText());
+  ASSERT_TRUE(s.ok());
+  const World& w = s.sim().world();
+  ASSERT_EQ(w.hand.fingers.size(), 5u);
+  ASSERT_GE(w.hand.carrier, 0);
+  EXPECT_EQ(w.bodies[w.hand.carrier].name, "palm");
+  double worst_joint = 0.0, worst_root = 0.0, farthest_target = 0.0;
+  int limit_rows = 0;
+  while (w.time < 2.4) {
+    const Pose palm_before = w.bodies[w.hand.carrier].pose;
+    s.RunTo(w.time + w.params.dt);
+    for (const Finger& f : w.hand.fingers) {
+      Vec3 prox[3], dist[3];
+      for (int l = 0; l < 3; ++l) {
+        const Body& b = w.bodies[f.segment_body[l]];
+        EXPECT_EQ(b.motion, EMotion::Fingertip) << b.name;
+        CapsuleEnds(b, f.model.link_lengths[l], &prox[l], &dist[l]);
+        farthest_target = std::max(farthest_target, (b.drive.target.t - b.pose.t).norm());
+      }
+      // inner to middle, middle to outer: one joint, however the box pushed them
+      worst_joint = std::max({worst_joint, (dist[0] - prox[1]).norm(), (dist[1] - prox[2]).norm()});
+      // the knuckle sits where the palm carried it at the step's start
+      const Vec3 root = (palm_before * w.hand.carrier_offset * f.model.base).t;
+      worst_root = std::max(worst_root, (prox[0] - root).norm());
+    }
+    limit_rows = std::max(limit_rows, static_cast<int>(w.limit_rows.size()));
+  }
+  EXPECT_LT(worst_joint, 1e-9);
+  EXPECT_LT(worst_root, 1e-9);
+  // the tracked hand closed through the box while the simulated one was stopped on it
+  EXPECT_GT(farthest_target, 0.005);
+  EXPECT_TRUE(AllFinite(w));
+  EXPECT_EQ(w.rejected_steps, 0);
+}
+
+TEST(WholeHand, JointLimitsStopAFingerTheGloveBendsPastThem) {
+  app::BuiltScene b;
+  std::string error;
+  ASSERT_TRUE(Build(SceneText(), &b, &error)) << error;
+  World& w = b.world;
+  const int index = 1;
+  Finger& f = w.hand.fingers[index];
+  ASSERT_EQ(f.name, "index");
+  const double pip_max = f.model.limits[2][1];
+  // the glove bends the index's middle joint 0.6 rad past its range (a tracker
+  // glitch, or a hand larger than the model): every segment's target is that pose
+  const Vec4 bent(0.0, 0.3, pip_max + 0.6, 0.3);
+  const FingerKinematics k = FingerForward(f.model, w.hand.pose, bent);
+  CouplingParams coupling;
+  for (int step = 0; step < 400; ++step) {
+    for (int l = 0; l < 3; ++l) {
+      Body& seg = w.bodies[f.segment_body[l]];
+      SetCouplingTarget(seg, w.params.gravity, coupling, k.link[l] * f.segment_offset[l], Vec3::Zero());
+    }
+    // the palm holds where it is
+    SetCouplingTarget(w.bodies[w.hand.carrier], w.params.gravity, coupling, w.bodies[w.hand.carrier].pose,
+                      Vec3::Zero());
+    w.Step();
+  }
+  const Finger& g = w.hand.fingers[index];
+  // the bent joint stops at its limit; the outer joint bends further than the glove's
+  // 0.3 to bring the outer phalanx as near as it can to where the glove puts it
+  EXPECT_NEAR(g.q[2], pip_max, 1e-3);
+  EXPECT_NEAR(g.q[1], 0.3, 0.05);
+  EXPECT_GT(g.q[3], 0.3 + 0.2);
+  EXPECT_LE(g.q[3], g.model.limits[3][1] + 1e-3);
+  // held there by the limit's row, which carries the springs' pull
+  double torque = 0.0;
+  for (const LimitRow& l : w.limit_rows)
+    if (l.finger == index && l.joint == 2) torque = l.Torque();
+  EXPECT_LT(torque, -1e-3);  // the upper limit pushes the joint back (negative torque)
+  EXPECT_TRUE(AllFinite(w));
+  EXPECT_EQ(w.rejected_steps, 0);
 }
 
 TEST(WholeHand, FingersLostMidGraspHoldThenReleaseWithoutNaN) {
