@@ -20,6 +20,7 @@ const char* const kFingerNames[kHandMaxFingers] = {"thumb", "index", "middle", "
 const char* const kPhalanxNames[kPhalanges] = {"outer", "middle", "inner"};
 // a phalanx capsule's sizes, from the scene or from the tracker (m)
 constexpr double kMinLength = 0.005, kMaxLength = 0.12, kMinRadius = 0.002, kMaxRadius = 0.03;
+constexpr double kMaxKnuckle = 0.15;  ///< m from the back of the hand's origin (the average hand's farthest: 6 cm)
 
 SceneError At(SceneError at, const std::string& message) {
   at.message = message;
@@ -162,6 +163,17 @@ std::string FingerSizeProblem(const tracking::Hand& hand, int f, const tracking:
     if (!(out->length[k] >= kMinLength && out->length[k] <= kMaxLength))
       return finger + ": a phalanx length is outside the scene's 5 to 120 mm for a phalanx capsule" + values;
   }
+  // the knuckle (root joint) where the tracker's chain puts it, in the back of the
+  // hand's frame: the finger's joints are rooted there on the palm, so that the
+  // tracked inner phalanx and the simulated one start at the same point
+  const Vec3 knuckle = hand.rotation.transpose() * (ChainFromTip(tf).joint[kPhalanges] - hand.position) * c.units_m;
+  if (!(knuckle.norm() <= kMaxKnuckle)) {
+    char where[96];
+    std::snprintf(where, sizeof where, ": its knuckle lies %.0f mm from the back of the hand; at most %.0f mm",
+                  1e3 * knuckle.norm(), 1e3 * kMaxKnuckle);
+    return finger + where + values;
+  }
+  out->root.t = knuckle;
   return "";
 }
 

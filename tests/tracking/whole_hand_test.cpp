@@ -235,6 +235,51 @@ TEST(WholeHand, TrackerSizesShapeThePhalangesFromTheSentLengthsAndRadii) {
   EXPECT_EQ(ValidCount(s), 16);
 }
 
+// the datagram with every finger block's fingertip `dx_mm` further along the hand's x
+// (gl finger positions are in the back of the hand's frame): the whole tracked chain
+// moves, so every knuckle lies dx_mm further along x in the hand frame
+std::string ShiftFingers(const std::string& d, double dx_mm) {
+  const size_t gl = d.find("gl 1 [");
+  EXPECT_NE(gl, std::string::npos);
+  std::string out = d;
+  // brackets after the gl line's head: [id q lr n][hand position][hand rotation], then
+  // three per finger: [position][rotation][radius, lengths, angles]
+  size_t at = gl;
+  for (int bracket = 0; bracket < 3 + 3 * 5; ++bracket) {
+    at = out.find('[', at + 1);
+    if (bracket < 3 || (bracket - 3) % 3 != 0) continue;
+    const size_t end = out.find(' ', at);
+    char x[32];
+    std::snprintf(x, sizeof x, "%.3f", std::atof(out.substr(at + 1, end - at - 1).c_str()) + dx_mm);
+    out = out.substr(0, at + 1) + x + out.substr(end);
+  }
+  return out;
+}
+
+TEST(WholeHand, TrackerSizesRootTheFingersAtTheTrackedKnuckles) {
+  app::TrackedSim sized;
+  std::string error;
+  // the synthetic hand's knuckles are the average hand's; its fingers sent 6 mm
+  // further along the hand's x put them 6 mm further forward
+  ASSERT_TRUE(LoadSized(&sized, TrackerSizedText(), Feed({ShiftFingers(SizedDatagram(1.0), 6.0)}), &error)) << error;
+  const HandModel avg = AverageAdultHand(5, true);
+  const World& w = sized.world();
+  ASSERT_EQ(w.hand.fingers.size(), 5u);
+  for (int f = 0; f < 5; ++f) {
+    const Vec3 expected = avg.finger[f].root.t + Vec3(0.006, 0.0, 0.0);
+    EXPECT_NEAR((w.hand.fingers[f].model.base.t - expected).norm(), 0.0, 2e-6)
+        << f << ": " << w.hand.fingers[f].model.base.t.transpose() << " vs " << expected.transpose();
+    // the inner phalanx starts at that knuckle
+    const Body& inner = w.bodies[w.hand.fingers[f].segment_body[0]];
+    const Vec3 proximal = inner.pose.t - inner.geometry.shape.half_length * inner.pose.R.col(2);
+    EXPECT_NEAR((proximal - (w.hand.pose * w.hand.fingers[f].model.base).t).norm(), 0.0, 1e-9) << f;
+  }
+  // a knuckle farther than 15 cm from the back of the hand cannot size it
+  app::TrackedSim far;
+  EXPECT_FALSE(LoadSized(&far, TrackerSizedText(), Feed({ShiftFingers(SizedDatagram(1.0), 200.0)}), &error));
+  EXPECT_NE(error.find("knuckle lies"), std::string::npos) << error;
+}
+
 TEST(WholeHand, TrackerSizesSkipDatagramsThatCannotSizeTheHand) {
   app::Scene base;
   std::vector<app::SceneError> errors;
