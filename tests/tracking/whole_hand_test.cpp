@@ -15,6 +15,7 @@
 #include <thread>
 
 #include "core/hand.h"
+#include "core/holding_friction.h"
 #include "core/virtual_coupling.h"
 #include "scene/scene_file.h"
 #include "session/tracked_sim.h"
@@ -803,6 +804,56 @@ std::string PinchText() {
   std::stringstream s;
   s << f.rdbuf();
   return s.str();
+}
+
+// The pinch held at the scene's friction (0.8) from 3 s, then the friction between
+// the box and the hand set to `factor` times mu*, the least friction with which the
+// hold's normal forces can keep the box at rest (core/holding_friction.h): how far the
+// box then sinks in 1.5 s.
+struct PinchRelease {
+  HoldingFriction hold;
+  double sank = 0.0, last_half_second = 0.0;
+  bool finite = true;
+};
+
+PinchRelease RunPinchAt(double factor) {
+  Session s(PinchText(), true);
+  PinchRelease out;
+  if (!s.ok()) return out;
+  World& w = s.sim().world();
+  const int box = s.sim().scene().tracked_body;
+  s.RunTo(3.0);
+  out.hold = LeastHoldingFriction(w, box);
+  for (int i = 0; i < static_cast<int>(w.bodies.size()); ++i)
+    if (i != box && w.bodies[i].motion == EMotion::Fingertip) w.SetFriction(box, i, factor * out.hold.mu);
+  const double z0 = w.bodies[box].pose.t.z();
+  s.RunTo(4.0);
+  const double z1 = w.bodies[box].pose.t.z();
+  s.RunTo(4.5);
+  out.sank = z0 - w.bodies[box].pose.t.z();
+  out.last_half_second = z1 - w.bodies[box].pose.t.z();
+  out.finite = AllFinite(w);
+  return out;
+}
+
+TEST(WholeHand, PrecisionPinchLetsGoWhereCoulombsLawSays) {
+  const PinchRelease hold = RunPinchAt(1.02);
+  // the hold is static (its own forces balance the weight, 1.47 N, to 0.1 %) and
+  // needs a friction between the two pads' Coulomb bounds
+  EXPECT_LT(hold.hold.net_force, 1.5e-3);
+  EXPECT_GE(hold.hold.contacts, 4);
+  EXPECT_GT(hold.hold.mu, 0.25);
+  EXPECT_LT(hold.hold.mu, 0.6);
+  // 2 % above mu*: the tangential forces redistribute (the box slips under a
+  // millimetre), then it stays
+  EXPECT_LT(hold.sank, 1e-3);
+  EXPECT_LT(hold.last_half_second, 1e-5);
+  EXPECT_TRUE(hold.finite);
+  // 2 % below: no distribution of friction holds it, and it falls out of the pinch
+  const PinchRelease fall = RunPinchAt(0.98);
+  EXPECT_NEAR(fall.hold.mu, hold.hold.mu, 1e-9);  // the same hold up to the switch
+  EXPECT_GT(fall.sank, 0.02);
+  EXPECT_TRUE(fall.finite);
 }
 
 TEST(WholeHand, PrecisionPinchHoldsTheBoxAtFrictionPointEightAndNotAtPointFour) {
