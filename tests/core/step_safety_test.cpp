@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <algorithm>
+#include <string>
 #include <vector>
 #include <new>
 
@@ -97,6 +98,56 @@ TEST(StepSafety, SteadyStateStepDoesNotAllocate) {
   EXPECT_GT(a.checked, 0) << "every step needed Newton: nothing was checked";
   EXPECT_GT(w.rows.size(), 10u);
   EXPECT_EQ(w.rejected_steps, 0);
+}
+
+// a whole hand's finger: three soft balls carried by its links, each pulled 2 cm
+// down by its drive (a tracked phalanx's coupling), the distal one pressed on the plane
+void BuildSegmentFinger(World& w) {
+  w.params.dt = 1e-3;
+  w.params.solver.tolerance = 1e-7;
+  w.params.solver.max_iterations = 200;
+  test::AddPlane(w);
+  Finger f;
+  f.model.link_lengths = {0.03, 0.025, 0.02};
+  f.model.limits = {{{-0.3, 0.3}, {-0.5, 1.6}, {0.0, 1.2}, {0.0, 1.2}}};
+  f.model.base = Pose::Translation(Vec3(0, 0, 0.06));
+  f.q = Vec4(0.0, 0.6, 0.3, 0.3);
+  f.motor_stiffness = 0.0;
+  f.joint_damping = 1e-4;
+  const FingerKinematics k = FingerForward(f.model, Pose{}, f.q);
+  for (int l = 0; l < 3; ++l) {
+    BodySpec ball = test::SoftBall();
+    ball.name = "segment" + std::to_string(l);
+    ball.shape.radius = 0.008;
+    ball.motion = EMotion::Fingertip;
+    f.segment_offset[l] = Pose::Translation(Vec3(0.5 * f.model.link_lengths[l], 0, 0));
+    ball.pose = k.link[l] * f.segment_offset[l];
+    f.segment_body[l] = AddBody(w, ball);
+  }
+  w.hand.fingers.push_back(f);
+  w.Finalize();
+  for (int l = 0; l < 3; ++l) {
+    Drive& d = w.bodies[f.segment_body[l]].drive;
+    d.enabled = true;
+    d.stiffness = Vec3::Constant(800.0);
+    d.damping = Vec3::Constant(8.0);
+    d.angular_stiffness = Vec3::Constant(0.02);
+    d.angular_damping = Vec3::Constant(2e-4);
+    d.max_force = 20.0;
+    d.target = Pose::Translation(Vec3(0, 0, -0.02)) * w.bodies[f.segment_body[l]].pose;
+  }
+}
+
+TEST(StepSafety, SteadyStateStepOfASegmentDrivenFingerDoesNotAllocate) {
+  World w;
+  BuildSegmentFinger(w);
+  for (int i = 0; i < 300; ++i) w.Step();
+  ASSERT_GT(w.rows.size(), 0u);
+  const Allocations a = CountAllocations(w, 100);
+  EXPECT_EQ(a.count, 0);
+  EXPECT_GT(a.checked, 0);
+  EXPECT_EQ(w.rejected_steps, 0);
+  for (const Body& b : w.bodies) EXPECT_TRUE(b.pose.t.allFinite());
 }
 
 TEST(StepSafety, SteadyStateStepWithJointLimitsDoesNotAllocate) {
