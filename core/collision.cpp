@@ -349,6 +349,38 @@ void CachedLeafPairs(const TraversalNode* na, const TraversalNode* nb, const Sph
   }
 }
 
+// One-pass contact: for each leaf of the querying body (a's when query_a) that the
+// pairs reach, its coupled leaf on the surface body (the overlapping leaf whose centre
+// is nearest) and its lift (its lowest height above the overlapping leaves' slabs),
+// what the two-sided gathering in CollidePair gives that side, in the same order.
+// `normals`: the surface's leaf normals in the traversal's frame.
+void GatherSide(const std::vector<CollisionScratch::LeafPair>& pairs, bool query_a, const SphereTree& ts,
+                const Vec3* normals, std::vector<int>* best, std::vector<double>* best_d2, std::vector<double>* lift,
+                std::vector<int>* touched) {
+  // the offset d is a's centre minus b's: b's height above a's slab is -d . n_a
+  const double sign = query_a ? 1.0 : -1.0;
+  int* bl = best->data();
+  double* bd = best_d2->data();
+  double* lf = lift->data();
+  for (const CollisionScratch::LeafPair& p : pairs) {
+    const int lq = query_a ? p.leaf_a : p.leaf_b;
+    const int ls = query_a ? p.leaf_b : p.leaf_a;
+    const double h = sign * p.d.dot(normals[ls]) - ts.leaf_height(ls);
+    if (bl[lq] < 0) {
+      touched->push_back(lq);
+      lf[lq] = h;
+      bl[lq] = ls;
+      bd[lq] = p.dist2;
+      continue;
+    }
+    lf[lq] = std::min(lf[lq], h);
+    if (p.dist2 < bd[lq]) {
+      bl[lq] = ls;
+      bd[lq] = p.dist2;
+    }
+  }
+}
+
 // the leaf whose centre is nearest to p, by greedy descent (exact enough for a re-projection)
 int NearestLeaf(const SphereTree& t, const Vec3& p) {
   const TraversalNode* n = t.traversal();
@@ -990,7 +1022,26 @@ void CollidePair(int id_a, const CollisionShape& a, const Pose& pose_a, int id_b
   const Mat3& R = a_in_b.R;
   // (the moved tree's leaf normal is turned once per leaf, when the leaf is first met)
   Vec3* turned = s->turned_normal.data();
-  for (const CollisionScratch::LeafPair& p : s->pairs) {
+  // a body that does not emit contacts only receives the other's control points
+  const bool emit_a = a.emits_contacts || !b.emits_contacts;
+  const bool emit_b = b.emits_contacts || !a.emits_contacts;
+  if (!(emit_a && emit_b)) {
+    // one-pass: only the emitting side's leaves are gathered, against the other's
+    // normals in the traversal's frame (the moved tree's turned once, all of them)
+    const SphereTree& ts = emit_a ? tb : ta;
+    const bool turn = emit_a != in_b;  // the surface's tree is the moved one
+    const Vec3* normals = &ts.leaf_normal(0);
+    if (turn) {
+      for (int l = 0; l < ts.num_leaves(); ++l) turned[l] = (emit_a ? Mat3(R.transpose()) : R) * ts.leaf_normal(l);
+      normals = turned;
+    }
+    if (emit_a)
+      GatherSide(s->pairs, true, ts, normals, &s->best_a, &s->best_a_d2, &s->lift_a, &s->touched_a);
+    else
+      GatherSide(s->pairs, false, ts, normals, &s->best_b, &s->best_b_d2, &s->lift_b, &s->touched_b);
+  }
+  // two-pass: both sides at once
+  if (emit_a && emit_b) for (const CollisionScratch::LeafPair& p : s->pairs) {
     double ha, hb;
     if (in_b) {
       if (s->best_a[p.leaf_a] < 0) turned[p.leaf_a] = R * ta.leaf_normal(p.leaf_a);
@@ -1025,9 +1076,6 @@ void CollidePair(int id_a, const CollisionShape& a, const Pose& pose_a, int id_b
   const auto t1 = Clock::now();
 
   // interpenetration: a's control points on b's surface, then b's on a's
-  // (a body that does not emit contacts only receives the other's control points)
-  const bool emit_a = a.emits_contacts || !b.emits_contacts;
-  const bool emit_b = b.emits_contacts || !a.emits_contacts;
   const bool rigid = !a.deforms && !b.deforms;
   const bool two_pass = emit_a && emit_b;
   ProjectSide(id_a, *a.tree, a_in_b, id_b, b, pose_b, params, emit_a, two_pass, rigid, &s->best_a, &s->best_a_d2,
