@@ -349,6 +349,38 @@ void CachedLeafPairs(const TraversalNode* na, const TraversalNode* nb, const Sph
   }
 }
 
+// One-pass contact: for each leaf of the querying body (a's when query_a) that the
+// pairs reach, its coupled leaf on the surface body (the overlapping leaf whose centre
+// is nearest) and its lift (its lowest height above the overlapping leaves' slabs),
+// what the two-sided gathering in CollidePair gives that side, in the same order.
+// `normals`: the surface's leaf normals in the traversal's frame.
+void GatherSide(const std::vector<CollisionScratch::LeafPair>& pairs, bool query_a, const SphereTree& ts,
+                const Vec3* normals, std::vector<int>* best, std::vector<double>* best_d2, std::vector<double>* lift,
+                std::vector<int>* touched) {
+  // the offset d is a's centre minus b's: b's height above a's slab is -d . n_a
+  const double sign = query_a ? 1.0 : -1.0;
+  int* bl = best->data();
+  double* bd = best_d2->data();
+  double* lf = lift->data();
+  for (const CollisionScratch::LeafPair& p : pairs) {
+    const int lq = query_a ? p.leaf_a : p.leaf_b;
+    const int ls = query_a ? p.leaf_b : p.leaf_a;
+    const double h = sign * p.d.dot(normals[ls]) - ts.leaf_height(ls);
+    if (bl[lq] < 0) {
+      touched->push_back(lq);
+      lf[lq] = h;
+      bl[lq] = ls;
+      bd[lq] = p.dist2;
+      continue;
+    }
+    lf[lq] = std::min(lf[lq], h);
+    if (p.dist2 < bd[lq]) {
+      bl[lq] = ls;
+      bd[lq] = p.dist2;
+    }
+  }
+}
+
 // the leaf whose centre is nearest to p, by greedy descent (exact enough for a re-projection)
 int NearestLeaf(const SphereTree& t, const Vec3& p) {
   const TraversalNode* n = t.traversal();
@@ -397,14 +429,15 @@ const int* SupportOf(const SphereTree& ts, const Vec3& q, double support, int* l
 // leaf's fit (trusted or not): x outside the fit by more than `far` plus twice the
 // fit's error over the leaf (sampled at build), its closest point on the fit inside
 // the leaf's sphere, where that error was measured.
-bool FarAboveFit(const SphereTree& ts, int l, const Vec3& x, double h, double far) {
+bool FarAboveFit(const SphereTree& ts, int l, const Vec3& x, double h, double far, double* outside) {
   const MlsPatch* fit = ts.leaf_fit(l);
   if (!fit || fit->h != h) return false;
   const double margin = 2.0 * ts.leaf_fit_error(l);
   const Vec3 q = fit->Closest(x);
   const TreeNode& node = ts.node(ts.leaf_node(l));
   if (!q.allFinite() || !((q - node.center).squaredNorm() <= node.rest_radius * node.rest_radius)) return false;
-  return (x - q).dot(fit->NormalBelow(q)) - margin > far;
+  *outside = (x - q).dot(fit->NormalBelow(q)) - margin;
+  return *outside > far;
 }
 
 // Projects x onto the MLS surface of the surface body near its leaf *leaf, what
@@ -444,11 +477,13 @@ bool ProjectNear(const SphereTree& ts, const Vec3* pos, const Vec3* nrm, const V
   // build: twice that is the margin) puts x's distance to the surface there within 2e
   // of its distance to the fit: a point outside it by more than `far` + 2e has no
   // contact near this leaf, and no MLS fit is needed to say so.
-  if (FarAboveFit(ts, *leaf, x, mls.bandwidth, far)) {
+  double outside = 0.0;
+  if (FarAboveFit(ts, *leaf, x, mls.bandwidth, far, &outside)) {
     out->iterations = 0;
     out->point = x;
     out->normal = Vec3::UnitZ();
     out->far = true;
+    out->outside = outside;
     return true;
   }
   Vec3 normal = Vec3::UnitZ();
@@ -477,6 +512,7 @@ bool ProjectNear(const SphereTree& ts, const Vec3* pos, const Vec3* nrm, const V
         out->point = q;
         out->normal = normal;
         out->far = true;
+        out->outside = (x - q).dot(normal) - 2.0 * moved;
         return q.allFinite() && normal.allFinite();
       }
       // from a trusted patch's start, one fit shrinks the distance to the foot at
@@ -640,12 +676,37 @@ bool FlatOnEdge(const SphereTree& tq, int lq, const SphereTree& ts, int ls) {
          !std::isfinite(ts.leaf_patch_error(ls));
 }
 
+// Whether a control point now at x (the surface's frame), coupled to leaf ls, is
+// known to give no contact from what an earlier projection proved (its mark): coupled
+// to the same leaf, it has moved less than the margin by which it stood beyond the
+// threshold. The distance to a surface changes by at most the distance moved.
+bool Remembered(const PairCache::FarMark& m, const Vec3& x, int ls, double thr) {
+  if (m.coupled != ls) return false;
+  const double spare = m.outside - thr;
+  return spare > 0.0 && (x - m.x).squaredNorm() < spare * spare;
+}
+
+// How far a converged projection's gap may be from the distance to the MLS surface:
+// a patch's error over its leaf when the patch served it (no fit), else what the
+// fits still had to move (below the tolerance, 20 times that after a trusted start).
+double FootError(const SphereTree& ts, int coupled, const MlsProjection& proj, const MlsParams& mls) {
+  if (proj.iterations == 0) return ts.leaf_patch_error(coupled);
+  return 2.0 * mls.tolerance * mls.bandwidth / kContraction;
+}
+
 void ProjectSide(int id_q, const SphereTree& tq, const Pose& q_to_s, int id_s, const CollisionShape& surf,
                  const Pose& pose_s, const CollisionParams& params, bool emit, bool two_pass, bool rigid_pair,
                  std::vector<int>* best,
                  std::vector<double>* best_d2, std::vector<double>* lift, std::vector<int>* touched,
-                 CollisionScratch* s, ContactBuffer* out, CollisionStats* stats) {
+                 std::vector<PairCache::FarMark>* marks, CollisionScratch* s, ContactBuffer* out,
+                 CollisionStats* stats) {
   const SphereTree& ts = *surf.tree;
+  const double thr = params.contact_threshold;
+  // the marks serve where every projection is the closest-point one at the body's bandwidth
+  PairCache::FarMark* mark = marks && params.far_memory && params.far_stop && params.max_bandwidth_factor <= 1.0 &&
+                                     marks->size() >= static_cast<size_t>(tq.num_leaves())
+                                 ? marks->data()
+                                 : nullptr;
   const Vec3* pos = surf.cloud->positions.data();
   const Vec3* nrm = surf.cloud->normals.data();
   const double h = surf.mls.bandwidth;
@@ -666,6 +727,10 @@ void ProjectSide(int id_q, const SphereTree& tq, const Pose& q_to_s, int id_s, c
     // bandwidth from the distance between the coupled centres, clamped to the body's range
     mls.bandwidth = std::clamp(std::sqrt(d2), h, params.max_bandwidth_factor * h);
     const Vec3 x = q_to_s.Apply(tq.control_point(lq));
+    if (mark && Remembered(mark[lq], x, ls, thr)) {
+      ++stats->remembered;
+      continue;
+    }
     MlsProjection proj;
     int coupled = ls;
     ++stats->projections;
@@ -674,6 +739,7 @@ void ProjectSide(int id_q, const SphereTree& tq, const Pose& q_to_s, int id_s, c
     stats->fits += proj.iterations;
     if (ok && proj.far) {
       ++stats->far;
+      if (mark) mark[lq] = {x, proj.outside, ls};
       continue;
     }
     if (!ok || !proj.point.allFinite() || !proj.normal.allFinite()) {
@@ -708,7 +774,10 @@ void ProjectSide(int id_q, const SphereTree& tq, const Pose& q_to_s, int id_s, c
       ++stats->rejected;
       continue;
     }
-    if (!(gap < params.contact_threshold)) continue;
+    if (!(gap < params.contact_threshold)) {
+      if (mark) mark[lq] = {x, gap - FootError(ts, coupled, proj, mls), ls};
+      continue;
+    }
     Contact c;
     c.body[0] = id_q;
     c.body[1] = id_s;
@@ -844,11 +913,14 @@ void PairCache::ReserveStart(size_t moved_nodes) {
   next.pairs.reserve(std::min<size_t>(wide_limit, 2 * kPairListStart));
   next_stack.reserve(1024);
   next_nodes.reserve(moved_nodes);
+  // a binary tree of n nodes has (n + 1) / 2 leaves, and the moved tree is the larger
+  far_a.assign((moved_nodes + 1) / 2, FarMark{});
+  far_b.assign((moved_nodes + 1) / 2, FarMark{});
 }
 
 size_t PairCache::StartBytes(size_t moved_nodes) {
   return 5 * kPairListStart * sizeof(std::pair<int, int>) + 1024 * sizeof(uint64_t) +
-         moved_nodes * sizeof(TraversalNode);
+         moved_nodes * sizeof(TraversalNode) + 2 * ((moved_nodes + 1) / 2) * sizeof(FarMark);
 }
 
 void CollisionStats::Add(const CollisionStats& o) {
@@ -857,6 +929,7 @@ void CollisionStats::Add(const CollisionStats& o) {
   projections += o.projections;
   fits += o.fits;
   far += o.far;
+  remembered += o.remembered;
   rejected += o.rejected;
   on_edges += o.on_edges;
   out_of_border += o.out_of_border;
@@ -949,7 +1022,26 @@ void CollidePair(int id_a, const CollisionShape& a, const Pose& pose_a, int id_b
   const Mat3& R = a_in_b.R;
   // (the moved tree's leaf normal is turned once per leaf, when the leaf is first met)
   Vec3* turned = s->turned_normal.data();
-  for (const CollisionScratch::LeafPair& p : s->pairs) {
+  // a body that does not emit contacts only receives the other's control points
+  const bool emit_a = a.emits_contacts || !b.emits_contacts;
+  const bool emit_b = b.emits_contacts || !a.emits_contacts;
+  if (!(emit_a && emit_b)) {
+    // one-pass: only the emitting side's leaves are gathered, against the other's
+    // normals in the traversal's frame (the moved tree's turned once, all of them)
+    const SphereTree& ts = emit_a ? tb : ta;
+    const bool turn = emit_a != in_b;  // the surface's tree is the moved one
+    const Vec3* normals = &ts.leaf_normal(0);
+    if (turn) {
+      for (int l = 0; l < ts.num_leaves(); ++l) turned[l] = (emit_a ? Mat3(R.transpose()) : R) * ts.leaf_normal(l);
+      normals = turned;
+    }
+    if (emit_a)
+      GatherSide(s->pairs, true, ts, normals, &s->best_a, &s->best_a_d2, &s->lift_a, &s->touched_a);
+    else
+      GatherSide(s->pairs, false, ts, normals, &s->best_b, &s->best_b_d2, &s->lift_b, &s->touched_b);
+  }
+  // two-pass: both sides at once
+  if (emit_a && emit_b) for (const CollisionScratch::LeafPair& p : s->pairs) {
     double ha, hb;
     if (in_b) {
       if (s->best_a[p.leaf_a] < 0) turned[p.leaf_a] = R * ta.leaf_normal(p.leaf_a);
@@ -984,15 +1076,12 @@ void CollidePair(int id_a, const CollisionShape& a, const Pose& pose_a, int id_b
   const auto t1 = Clock::now();
 
   // interpenetration: a's control points on b's surface, then b's on a's
-  // (a body that does not emit contacts only receives the other's control points)
-  const bool emit_a = a.emits_contacts || !b.emits_contacts;
-  const bool emit_b = b.emits_contacts || !a.emits_contacts;
   const bool rigid = !a.deforms && !b.deforms;
   const bool two_pass = emit_a && emit_b;
   ProjectSide(id_a, *a.tree, a_in_b, id_b, b, pose_b, params, emit_a, two_pass, rigid, &s->best_a, &s->best_a_d2,
-              &s->lift_a, &s->touched_a, s, out, &local);
+              &s->lift_a, &s->touched_a, cache ? &cache->far_a : nullptr, s, out, &local);
   ProjectSide(id_b, *b.tree, b_in_a, id_a, a, pose_a, params, emit_b, two_pass, rigid, &s->best_b, &s->best_b_d2,
-              &s->lift_b, &s->touched_b, s, out, &local);
+              &s->lift_b, &s->touched_b, cache ? &cache->far_b : nullptr, s, out, &local);
   const auto t2 = Clock::now();
   local.traverse_s += Seconds(t0, t1);
   local.project_s += Seconds(t1, t2);

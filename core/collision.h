@@ -62,6 +62,14 @@ struct CollisionParams {
   /// (CollisionStats::far); false: every projection runs to convergence (for
   /// checking that the early stop loses no contact).
   bool far_stop = true;
+  /// true: with a PairCache, a control point whose projection found it outside the
+  /// surface by more than contact_threshold keeps that margin (PairCache::FarMark);
+  /// while it stays coupled to the same leaf and has moved, relative to the surface,
+  /// less than the margin beyond the threshold, it gives no contact and is not
+  /// projected again (CollisionStats::remembered). Gaps are measured on the rest
+  /// surfaces posed rigidly, so the margin holds for as long as the motion allows.
+  /// false: every such point is projected every step (for checking the memory).
+  bool far_memory = true;
   /// Leaf-pair cache (PairCache): the margin, as a fraction of the two trees' mean
   /// leaf radii, by which the cached traversal reaches beyond the contact threshold.
   /// The cache serves the following steps while the trees' relative motion plus
@@ -111,6 +119,7 @@ struct CollisionStats {
   int on_edges = 0;       ///< of rejected: smooth points on an edge's MLS, left to the edge's own points (edge_rule)
   int culled = 0;         ///< leaves skipped: above every overlapping leaf's slab by more than delta_eps
   int far = 0;            ///< projections stopped early: outside the surface by more than delta_eps
+  int remembered = 0;     ///< control points not projected: an earlier step's projection found them outside by more than they moved since (far_memory)
   int contacts = 0;       ///< contacts added
   int dropped = 0;        ///< contacts lost because the buffer was full
   int cache_hits = 0;     ///< body pairs whose leaf pairs came from their PairCache
@@ -188,6 +197,16 @@ struct PairCache {
   double wide_used = 0.0; ///< the wide list's margin used as of the last step (m; < 0: not yet seen)
   std::vector<uint64_t> next_stack;        ///< its traversal's node pairs still to descend
   std::vector<TraversalNode> next_nodes;   ///< the moved tree's nodes when it began
+  /// What an earlier projection of a control point proved: standing at x (the
+  /// surface body's rest frame), coupled to the surface's leaf `coupled`, it was
+  /// outside the surface by at least `outside` (m). Per leaf of a (on b) and of b
+  /// (on a); coupled < 0: nothing known.
+  struct FarMark {
+    Vec3 x = Vec3::Zero();
+    double outside = 0.0;
+    int coupled = -1;
+  };
+  std::vector<FarMark> far_a, far_b;
   bool reserved = false;  ///< the lists have their first capacity (they grow from it as the pair needs)
   /// Gives the lists their first capacity (moved_nodes: the larger tree's node count).
   void ReserveStart(size_t moved_nodes);

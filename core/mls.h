@@ -53,6 +53,7 @@ struct MlsProjection {
   int iterations = 0;
   bool converged = false;
   bool far = false;  ///< stopped early: farther outside the surface than the caller asked about
+  double outside = 0.0;  ///< when far: how far outside the surface the point is known to stand, at least (m)
 };
 
 /// The MLS surface near one point, cached: a quadratic height field

@@ -259,6 +259,76 @@ TEST(Collision, FarStopLosesNoContact) {
   EXPECT_GT(far, empty_projections / 2);
 }
 
+// CollisionParams::far_memory: a control point found outside a surface by more than the
+// threshold is not projected again while it moves less than the spare margin, coupled to
+// the same leaf. A capsule (curved: its far points need fits) and the paper's fingertip
+// press into a box and back out along a wobbling path, small steps with a jump now and
+// then, one-pass and two-pass: every step's contacts are those of the same cached pair
+// projecting every point, bit for bit, and most far points are remembered. A memory that
+// ignored the motion (or the coupled leaf) loses the contacts of points that approach.
+TEST(Collision, FarMemoryLosesNoContact) {
+  ShapeDesc capsule;
+  capsule.type = EShape::Capsule;
+  capsule.radius = 0.009;
+  capsule.half_length = 0.012;
+  auto fc = Make(capsule, 2400, 320, 3);
+  auto fbox = Make(test::CubeShape(0.06), 9000, 1200, 4);
+  auto ft = Make(test::FingertipEllipsoid(), 2400, 320, 2);
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> u01(0.0, 1.0);
+  CollisionParams keep, forget;
+  forget.far_memory = false;
+  int contacts = 0, remembered = 0, projections = 0;
+  for (int run = 0; run < 4; ++run) {
+    const Fixture& q = run % 2 ? *fc : *ft;
+    const bool one_pass = run >= 2;
+    CollisionShape a = q.shape(), b = fbox->shape();
+    a.emits_contacts = !one_pass;
+    PairCache with, without;
+    for (PairCache* c : {&with, &without}) {
+      c->limit = 100000;
+      c->wide_limit = 200000;
+    }
+    CollisionScratch scratch;
+    scratch.Reserve(fbox->geom.tree.num_leaves(), 200000);
+    ContactBuffer on, off;
+    on.Reserve(20000);
+    off.Reserve(20000);
+    const Mat3 R0 = RandomRotation(rng);
+    const double reach = q.geom.tree.node(0).radius;
+    Vec3 slide = Vec3::Zero();
+    for (int k = 0; k < 300; ++k) {
+      // from 3 mm above the top face to 1 mm into it and back, twice, sliding and
+      // turning by up to 20 um and 2 mrad a step; every 60 steps a 1 mm jump
+      slide += Vec3(u01(rng) - 0.5, u01(rng) - 0.5, 0.0) * 4e-5;
+      if (k % 60 == 59) slide.x() += 1e-3;
+      const double depth = 1e-3 - 4e-3 * 0.5 * (1.0 + std::cos(2.0 * M_PI * k / 150.0));
+      const Mat3 R = Eigen::AngleAxisd(2e-3 * k, Vec3::UnitZ()).toRotationMatrix() * R0;
+      const Pose pq{R, Vec3(0.005, -0.004, 0.03 + reach - 0.004 - depth) + slide};
+      on.Clear();
+      off.Clear();
+      CollisionStats s_on, s_off;
+      CollidePair(0, a, pq, 1, b, Pose{}, keep, &scratch, &on, &s_on, &with);
+      CollidePair(0, a, pq, 1, b, Pose{}, forget, &scratch, &off, &s_off, &without);
+      ASSERT_EQ(on.items.size(), off.items.size()) << "run " << run << " step " << k;
+      for (size_t i = 0; i < on.items.size(); ++i) {
+        ASSERT_EQ(on.items[i].key, off.items[i].key);
+        ASSERT_EQ(on.items[i].gap, off.items[i].gap);
+        ASSERT_EQ(on.items[i].normal, off.items[i].normal);
+        ASSERT_EQ(on.items[i].anchor[1], off.items[i].anchor[1]);
+      }
+      EXPECT_EQ(s_off.remembered, 0);
+      contacts += static_cast<int>(on.items.size());
+      remembered += s_on.remembered;
+      projections += s_off.projections - s_off.contacts;
+    }
+  }
+  std::printf("far memory: %d contacts, %d of %d projections without a contact remembered\n", contacts, remembered,
+              projections);
+  EXPECT_GT(contacts, 5000);
+  EXPECT_GT(remembered, projections / 2);
+}
+
 TEST(Collision, SphereAgainstSphereAgreesWithBruteForce) {
   ShapeDesc s1;
   s1.type = EShape::Sphere;
