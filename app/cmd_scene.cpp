@@ -55,7 +55,8 @@ void AddSceneCommand(CLI::App& app, int* exit_code) {
       }
       std::printf("%s: ok: scene '%s', %zu bodies, %zu fingers, %d points, %d control points, %.3f s in steps of %g s, "
                   "%zu script keyframes\n",
-                  f.c_str(), s.name.c_str(), s.bodies.size(), s.fingers.size(), points, cps, s.duration, s.params.dt,
+                  f.c_str(), s.name.c_str(), s.bodies.size(), built->world.hand.fingers.size(), points, cps, s.duration,
+                  s.params.dt,
                   s.script.size());
     }
     *exit_code = all ? kExitOk : kExitBadInput;
