@@ -76,6 +76,7 @@ struct SceneTrackedHand {
   /// datagram (SizeHandFromFrame) before the scene is built; until then the default sizes
   bool sizes_from_tracker = false;
   bool sized = false;         ///< the tracker's sizes were applied
+  bool palm_size_given = false;  ///< the scene gave the palm's size_m (the tracker does not resize it)
   SceneError sizes_at;        ///< where `sizes: tracker` was given
   HandModel model;            ///< the sizes the segments have now
   Pose start;                 ///< the hand's start pose (position_m, rotation_deg)

@@ -4,6 +4,7 @@
 // and placed from the hand model at the start pose (core/hand.h); each segment
 // follows its tracked segment through the tracker's virtual coupling, and the
 // segments of one finger (of the whole hand, without self_contact) never touch.
+#include <algorithm>
 #include <array>
 #include <cstdio>
 #include <set>
@@ -177,6 +178,23 @@ std::string FingerSizeProblem(const tracking::Hand& hand, int f, const tracking:
   return "";
 }
 
+// how much wider the tracked knuckles of the four fingers spread across the hand (y)
+// than the model's: the palm box is made as much wider (a three-finger glove's two
+// knuckles, and a ratio outside 0.5 to 2, leave it as it is)
+double KnuckleSpreadRatio(const HandModel& tracked, const HandModel& model) {
+  if (tracked.fingers < 5) return 1.0;
+  const auto spread = [](const HandModel& m) {
+    double lo = 1e9, hi = -1e9;
+    for (int f = 1; f < m.fingers; ++f) {
+      lo = std::min(lo, m.finger[f].root.t.y());
+      hi = std::max(hi, m.finger[f].root.t.y());
+    }
+    return hi - lo;
+  };
+  const double ratio = spread(tracked) / spread(model);
+  return ratio >= 0.5 && ratio <= 2.0 ? ratio : 1.0;
+}
+
 }  // namespace
 
 void ReadTrackedHand(const YAML::Node& node, const std::string& file, Scene* s, std::vector<SceneError>* errors) {
@@ -202,6 +220,7 @@ void ReadTrackedHand(const YAML::Node& node, const std::string& file, Scene* s, 
   // densities: the palm at the paper's fingertip density, a phalanx at the tracked
   // fingertips' (config/tracked_hand.yaml), so that a grasp's step fits in 1 ms
   SegmentDensity palm{2400, 320, 0.1, true}, phalanx{400, 50, 0.02, true};
+  if (YAML::Node pn = m.Raw("palm"); pn && pn.IsMap() && pn["size_m"]) th.palm_size_given = true;
   ReadDensity(m, "palm", &palm, &hm.palm_size, &hm.palm);
   ReadDensity(m, "phalanx", &phalanx, nullptr, nullptr);
   ReadSizes(m, &th, &hm);
@@ -249,9 +268,12 @@ bool SizeHandFromFrame(const tracking::DTrackFrame& frame, Scene* s, std::string
       return false;
     }
   }
+  if (!th.palm_size_given) sized.palm_size.y() *= KnuckleSpreadRatio(sized, th.model);
   th.model = sized;
   th.sized = true;
   ShapePhalanges(s);
+  for (SceneBody& b : s->bodies)
+    if (b.spec.name == "palm") b.spec.shape.half_extents = 0.5 * th.model.palm_size;
   return true;
 }
 

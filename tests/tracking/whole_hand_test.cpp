@@ -281,6 +281,46 @@ TEST(WholeHand, TrackerSizesRootTheFingersAtTheTrackedKnuckles) {
   EXPECT_NE(error.find("knuckle lies"), std::string::npos) << error;
 }
 
+// the datagram with every finger block's fingertip y (across the hand) times `factor`
+std::string SpreadFingers(const std::string& d, double factor) {
+  std::string out = d;
+  size_t at = out.find("gl 1 [");
+  for (int bracket = 0; bracket < 3 + 3 * 5; ++bracket) {
+    at = out.find('[', at + 1);
+    if (bracket < 3 || (bracket - 3) % 3 != 0) continue;
+    const size_t y_at = out.find(' ', at) + 1, y_end = out.find(' ', y_at);
+    char y[32];
+    std::snprintf(y, sizeof y, "%.3f", std::atof(out.substr(y_at, y_end - y_at).c_str()) * factor);
+    out = out.substr(0, y_at) + y + out.substr(y_end);
+  }
+  return out;
+}
+
+TEST(WholeHand, TrackerSizesWidenThePalmWithTheKnuckles) {
+  app::TrackedSim wide, given;
+  std::string error;
+  // the palm's size left to the hand (the shipped scene gives the default's)
+  const std::string unsized = Replace(TrackerSizedText(), "palm: {size_m: [0.09, 0.085, 0.025], ", "palm: {");
+  ASSERT_TRUE(LoadSized(&wide, unsized, Feed({SpreadFingers(SizedDatagram(1.0), 1.3)}), &error)) << error;
+  const World& w = wide.world();
+  const HandModel avg = AverageAdultHand(5, true);
+  // the knuckles of the four fingers, as the tracker's chains put them, across the hand
+  double lo = 1e9, hi = -1e9;
+  for (int f = 1; f < 5; ++f) {
+    lo = std::min(lo, w.hand.fingers[f].model.base.t.y());
+    hi = std::max(hi, w.hand.fingers[f].model.base.t.y());
+  }
+  const double ratio = (hi - lo) / (avg.finger[4].root.t.y() - avg.finger[1].root.t.y());
+  EXPECT_GT(ratio, 1.2);
+  const Body& palm = w.bodies[BodyIndex(w, "palm")];
+  EXPECT_NEAR(palm.geometry.shape.half_extents.y(), 0.5 * avg.palm_size.y() * ratio, 1e-12);
+  EXPECT_NEAR(palm.geometry.shape.half_extents.x(), 0.5 * avg.palm_size.x(), 1e-12);
+  // a palm the scene sizes keeps its size
+  const std::string text = Replace(TrackerSizedText(), "palm: {size_m: [0.09, 0.085, 0.025]", "palm: {size_m: [0.09, 0.08, 0.025]");
+  ASSERT_TRUE(LoadSized(&given, text, Feed({SpreadFingers(SizedDatagram(1.0), 1.3)}), &error)) << error;
+  EXPECT_NEAR(given.world().bodies[BodyIndex(given.world(), "palm")].geometry.shape.half_extents.y(), 0.04, 1e-12);
+}
+
 TEST(WholeHand, TrackerSizesSkipDatagramsThatCannotSizeTheHand) {
   app::Scene base;
   std::vector<app::SceneError> errors;
