@@ -164,6 +164,7 @@ bool NoScratchLeft(const std::string& dir) {
 // ---- the command ----
 
 TEST(PlotCli, RunFolderGivesEveryFigureAtTheAskedSize) {
+  // skipped without gnuplot, which draws the figures (setup.sh installs gnuplot-nox; CI has it)
   if (!HaveGnuplot()) GTEST_SKIP() << "gnuplot is not installed (scripts/setup.sh installs gnuplot-nox)";
   const std::string out = Root() + "/run_plots";
   const Result r = Sh(Bin() + " plot " + RunFolder() + " --out " + out + " --size 640x480");

@@ -178,6 +178,20 @@ TEST(Collision, FingertipAgainstPaperBoxAgreesWithBruteForce) {
   EXPECT_LT(ag.worst_gap_error, 0.15);
 }
 
+// a whole hand's phalanx (a capsule 9 mm in radius, 24 mm between its joints) with
+// these densities, the paper's fingertip and a 6 cm box: what the early stops are tested on
+struct Pressers {
+  std::unique_ptr<Fixture> capsule, box, tip;
+};
+Pressers MakePressers(int capsule_points, int capsule_cps, int box_points, int box_cps) {
+  ShapeDesc capsule;
+  capsule.type = EShape::Capsule;
+  capsule.radius = 0.009;
+  capsule.half_length = 0.012;
+  return {Make(capsule, capsule_points, capsule_cps, 3), Make(test::CubeShape(0.06), box_points, box_cps, 4),
+          Make(test::FingertipEllipsoid(), 2400, 320, 2)};
+}
+
 // The projection's early stop (CollisionParams::far_stop: points known to stand
 // outside the surface by more than the threshold, from the leaf's fit before any MLS
 // fit or from the fits' last move) gives the contacts of projections run to
@@ -187,13 +201,8 @@ TEST(Collision, FingertipAgainstPaperBoxAgreesWithBruteForce) {
 // points outside the true shape by more than a spacing (millimetres beyond a coarse
 // box's edge) whose converged projection lands on a spurious sheet of the MLS surface.
 TEST(Collision, FarStopLosesNoContact) {
-  ShapeDesc capsule;
-  capsule.type = EShape::Capsule;
-  capsule.radius = 0.009;
-  capsule.half_length = 0.012;
-  auto fc = Make(capsule, 400, 50, 3);
-  auto fbox = Make(test::CubeShape(0.06), 3000, 400, 4);
-  auto ft = Make(test::FingertipEllipsoid(), 2400, 320, 2);
+  const Pressers p = MakePressers(400, 50, 3000, 400);
+  const auto &fc = p.capsule, &fbox = p.box, &ft = p.tip;
   std::mt19937_64 rng(11);
   std::uniform_real_distribution<double> u01(0.0, 1.0);
   CollisionParams stop, full;
@@ -267,13 +276,8 @@ TEST(Collision, FarStopLosesNoContact) {
 // projecting every point, bit for bit, and most far points are remembered. A memory that
 // ignored the motion (or the coupled leaf) loses the contacts of points that approach.
 TEST(Collision, FarMemoryLosesNoContact) {
-  ShapeDesc capsule;
-  capsule.type = EShape::Capsule;
-  capsule.radius = 0.009;
-  capsule.half_length = 0.012;
-  auto fc = Make(capsule, 2400, 320, 3);
-  auto fbox = Make(test::CubeShape(0.06), 9000, 1200, 4);
-  auto ft = Make(test::FingertipEllipsoid(), 2400, 320, 2);
+  const Pressers p = MakePressers(2400, 320, 9000, 1200);
+  const auto &fc = p.capsule, &fbox = p.box, &ft = p.tip;
   std::mt19937_64 rng(5);
   std::uniform_real_distribution<double> u01(0.0, 1.0);
   CollisionParams keep, forget;
