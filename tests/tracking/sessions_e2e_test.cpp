@@ -93,6 +93,13 @@ TEST(SessionsEndToEnd, WholeHandReplayWritesEachSegmentsForceOnTheBox) {
       EXPECT_GT(most[name], 0.01) << name;
     }
   EXPECT_GT(most["table"], 0.0);
+  // trajectory.csv follows every moving body: the box, the palm and the phalanges
+  // the fingers carry
+  std::ifstream traj(out + "/trajectory.csv");
+  std::string header;
+  ASSERT_TRUE(std::getline(traj, header));
+  for (const char* column : {",box_z_m,", ",palm_z_m,", ",index_inner_x_m,", ",thumb_outer_qw,", ",little_middle_y_m,"})
+    EXPECT_NE(header.find(column), std::string::npos) << column << " in " << header;
 }
 
 TEST(SessionsEndToEnd, ReplayRefusesBadInputWithAMessage) {
