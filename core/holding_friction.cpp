@@ -142,7 +142,8 @@ HoldingFriction LeastHoldingFriction(const World& w, int body) {
   // must already balance: to 1e-6 of the forces involved)
   double scale = b.mass * w.params.gravity.norm();
   for (const Push& p : ps) scale += p.N;
-  if ((A * t0 - rhs).norm() > 1e-6 * scale) return out;
+  out.unreached = (A * t0 - rhs).norm();
+  if (out.unreached > 1e-6 * scale) return out;
   const Eigen::MatrixXd Z = svd.matrixV().rightCols(2 * k - rank);
   const Barrier barrier{ps, t0, Z};
   // start inside every cone: the least-norm distribution, mu above its largest ratio

@@ -21,6 +21,7 @@ struct HoldingFriction {
   int contacts = 0;        ///< contacts on the body that push (normal force > 0)
   double net_force = 0.0;  ///< |net force| of the step's own contact forces and the weight (N): how static it is
   double net_torque = 0.0; ///< |net torque| about the centre of the same (N m)
+  double unreached = 0.0;  ///< the part of the load no tangential force can balance (N and N m together; 0 in a static hold)
 };
 
 /// The least holding friction of body `body` from the contacts of the last step.

@@ -1,6 +1,7 @@
 // The least holding friction (core/holding_friction.h) against grasps solved by
 // hand: two opposed pads, two pads at different heights (their torque must be
-// taken by unequal friction), three pads around a ring.
+// taken by unequal friction), three pads around a ring; a pad no friction can
+// balance.
 #include "core/holding_friction.h"
 
 #include <gtest/gtest.h>
@@ -49,6 +50,7 @@ TEST(HoldingFriction, TwoOpposedPadsNeedHalfTheWeightOverTheSqueeze) {
   EXPECT_NEAR(h.mu, kMass * kG / (2 * N), 1e-7);
   // the rows carry no friction: the box is not at rest under the step's own forces
   EXPECT_NEAR(h.net_force, kMass * kG, 1e-12);
+  EXPECT_LT(h.unreached, 1e-12);  // the pads balance each other: the rest is friction's
 }
 
 TEST(HoldingFriction, PadsAtTwoHeightsTakeTheirCoupleByUnequalFriction) {
@@ -76,7 +78,10 @@ TEST(HoldingFriction, ThreePadsAroundARingShareTheWeight) {
 TEST(HoldingFriction, OnePadCannotHoldTheBox) {
   World w = HeldBox();
   AddPush(w, Vec3(-0.03, 0, 0), Vec3::UnitX(), 2.0);
-  EXPECT_TRUE(std::isinf(LeastHoldingFriction(w, 0).mu));
+  const HoldingFriction h = LeastHoldingFriction(w, 0);
+  EXPECT_TRUE(std::isinf(h.mu));
+  // no friction force takes the pad's 2 N push (along its normal), whatever else is left
+  EXPECT_GE(h.unreached, 2.0 - 1e-9);
   World none = HeldBox();
   EXPECT_TRUE(std::isinf(LeastHoldingFriction(none, 0).mu));
 }
