@@ -118,6 +118,15 @@ double DeepestOverlap(const World& w, int i, int j, CollisionScratch* scratch, C
   return deepest;
 }
 
+// a body of a whole tracked hand: its palm (the hand's carrier) or a phalanx
+bool HandSegment(const World& w, int i) {
+  if (i == w.hand.carrier) return true;
+  const int f = w.bodies[i].finger;
+  if (f < 0 || f >= static_cast<int>(w.hand.fingers.size())) return false;
+  const auto& seg = w.hand.fingers[f].segment_body;
+  return std::find(seg.begin(), seg.end(), i) != seg.end();
+}
+
 void Overlaps(const World& w, std::vector<IllPosed>* out) {
   const int n = static_cast<int>(w.bodies.size());
   CollisionScratch scratch;
@@ -142,12 +151,18 @@ void Overlaps(const World& w, std::vector<IllPosed>* out) {
       const double deepest = std::max(cores, DeepestOverlap(w, i, j, &scratch, &contacts));
       const double leaf = std::min(SmallestLeaf(a), SmallestLeaf(b));
       if (!(deepest > leaf)) continue;
-      char msg[640];
+      // two segments of the tracked hand are placed by its start pose, not by the scene
+      const bool hand = HandSegment(w, i) && HandSegment(w, j);
+      char msg[800];
       std::snprintf(msg, sizeof msg,
                     "bodies '%s' and '%s' start overlapping by %.3g mm, deeper than their smallest sphere-tree leaf "
                     "(radius %.3g mm): such contacts can be projected onto the wrong side of the surface. Move them "
-                    "at least %.3g mm apart (an overlap of at most %.3g mm is resolved)",
-                    a.name.c_str(), b.name.c_str(), 1e3 * deepest, 1e3 * leaf, 1e3 * (deepest - leaf), 1e3 * leaf);
+                    "at least %.3g mm apart (an overlap of at most %.3g mm is resolved)%s",
+                    a.name.c_str(), b.name.c_str(), 1e3 * deepest, 1e3 * leaf, 1e3 * (deepest - leaf), 1e3 * leaf,
+                    hand ? ". Both are segments of the tracked hand, placed by its start pose: with self_contact "
+                           "true, start the fingers bent (hand: start_flexion_rad, say [0.6, 0.35, 0.15]) so that "
+                           "the thumb clears the palm, or leave self_contact false"
+                         : "");
       out->push_back({IllPosed::ESite::Overlap, i, j, msg});
     }
   }

@@ -96,6 +96,7 @@ TEST(WholeHand, SceneMakesOneBodyPerSegmentAndKeepsTheHandsSegmentsApart) {
   const std::string self_text = Replace(SceneText(), "self_contact: false", "self_contact: true");
   EXPECT_FALSE(Build(self_text, &self, &error));
   EXPECT_NE(error.find("bodies 'palm' and 'thumb_outer' start overlapping"), std::string::npos) << error;
+  EXPECT_NE(error.find("start_flexion_rad"), std::string::npos) << error;  // what to change in a hand
   error.clear();
   app::BuiltScene self_bent;
   ASSERT_TRUE(Build(Replace(self_text, "start_flexion_rad: [0,", "start_flexion_rad: [0.6,"), &self_bent, &error)) << error;
