@@ -160,8 +160,8 @@ void Overlaps(const World& w, std::vector<IllPosed>* out) {
                     "at least %.3g mm apart (an overlap of at most %.3g mm is resolved)%s",
                     a.name.c_str(), b.name.c_str(), 1e3 * deepest, 1e3 * leaf, 1e3 * (deepest - leaf), 1e3 * leaf,
                     hand ? ". Both are segments of the tracked hand, placed by its start pose: with self_contact "
-                           "true, start the fingers bent (hand: start_flexion_rad, say [0.6, 0.35, 0.15]) so that "
-                           "the thumb clears the palm, or leave self_contact false"
+                           "true, change that pose (hand: start_flexion_rad, position_m, rotation_deg) or the sizes "
+                           "so that they clear each other, or leave self_contact false"
                          : "");
       out->push_back({IllPosed::ESite::Overlap, i, j, msg});
     }

@@ -380,10 +380,14 @@ void ExcludeHandPairs(const Scene& scene, World& w) {
       const SceneHandSegment &a = th.segments[i], &b = th.segments[j];
       if (index[i] < 0 || index[j] < 0) continue;
       const bool same_finger = a.finger >= 0 && a.finger == b.finger;
-      // an inner phalanx meets the palm at its knuckle; the thumb's inner and middle
-      // phalanges lie in the ball of the thumb, which the palm box covers
+      // an inner phalanx meets the palm at its knuckle. The thumb is rooted inside the
+      // palm box (in the ball of the thumb, which the box covers) and its outer
+      // phalanx lies along the box's edge when straight and sweeps through the box
+      // in opposition: the thumb and the palm box never touch (with that contact the
+      // synthetic power grasp's tracked thumb pressed 12 mm into the palm and threw
+      // the fingers about: docs/scene-format.md, self_contact)
       const auto rooted = [](const SceneHandSegment& s) {
-        return s.segment == tracking::ESegment::Inner || (s.finger == 0 && s.segment == tracking::ESegment::Middle);
+        return s.segment == tracking::ESegment::Inner || s.finger == 0;
       };
       const bool knuckle = (a.finger < 0 && rooted(b)) || (b.finger < 0 && rooted(a));
       if (same_finger || knuckle || !th.self_contact) w.SetCanTouch(index[i], index[j], false);
