@@ -25,6 +25,7 @@ struct SendOptions {
   bool whole_hand = false;  // every phalanx and the palm (config/whole_hand_power_grasp.yaml)
   double hold = 3.0;
   bool pinch = false;
+  bool left = false;
   int loops = 1;
   double start_delay = 0.0;
 };
@@ -32,6 +33,10 @@ struct SendOptions {
 int Send(const SendOptions& opt) {
   if (opt.pinch && !(opt.synthetic && opt.whole_hand)) {
     std::fprintf(stderr, "send: --pinch is a grasp of the synthetic whole hand: give it with --synthetic --whole-hand\n");
+    return kExitUsage;
+  }
+  if (opt.left && !(opt.synthetic && opt.whole_hand)) {
+    std::fprintf(stderr, "send: --left is a side of the synthetic whole hand: give it with --synthetic --whole-hand\n");
     return kExitUsage;
   }
   if (opt.synthetic == !opt.log.empty()) {
@@ -49,6 +54,7 @@ int Send(const SendOptions& opt) {
   hand.fingers = opt.fingers ? opt.fingers : 3;
   if (opt.whole_hand) hand = tracking::SyntheticHand::WholeHand(opt.fingers ? opt.fingers : 5, opt.hold);
   hand.pinch = opt.pinch;
+  hand.right = !opt.left;
   const double synthetic_rate = opt.rate > 0 ? opt.rate : 100.0;
   uint64_t per_pass = 0;
   double period = 0.0;  // seconds from one pass's start to the next
@@ -140,6 +146,8 @@ void AddSendCommand(CLI::App& app, int* exit_code) {
   cmd->add_flag("--pinch", opt->pinch,
                 "--whole-hand: a precision pinch, the thumb's and the index's outer phalanges on two faces "
                 "(config/tracked_whole_hand.yaml)");
+  cmd->add_flag("--left", opt->left,
+                "--whole-hand: a left hand (gl's lr 0), the right one mirrored, for a scene's hand with side: left");
   cmd->add_option("--hold", opt->hold, "--whole-hand: seconds the box is held lifted")
       ->type_name("SECONDS")
       ->capture_default_str()
@@ -159,8 +167,8 @@ void AddSendCommand(CLI::App& app, int* exit_code) {
                   "a recorded session, three times at its recorded pace"}},
                 {{kExitOk, "every datagram was sent"},
                  {kExitFailure, "a datagram could not be sent"},
-                 {kExitUsage, "bad command line: neither or both of FILE.lcmlog and --synthetic, --pinch without "
-                              "--synthetic --whole-hand, or a --host that cannot be used"},
+                 {kExitUsage, "bad command line: neither or both of FILE.lcmlog and --synthetic, --pinch or --left "
+                              "without --synthetic --whole-hand, or a --host that cannot be used"},
                  {kExitBadInput, "the session log was refused or holds no datagrams"},
                  {kExitInterrupted, "stopped early by Ctrl-C or SIGTERM"}});
   cmd->callback([opt, exit_code]() { *exit_code = Send(*opt); });

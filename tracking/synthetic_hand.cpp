@@ -151,6 +151,20 @@ void SyntheticHand::WholeHandPose(double t, Pose* hand, TrackedFinger* out) cons
   else
     PowerFingers(m, *hand, open, out);
   out[0] = Thumb(m, *hand, g, pinch, open);
+  if (!right) {
+    // the mirror image in the room's y: positions reflected, frames conjugated (M R M
+    // is a rotation); the hand model's left hand is the right one mirrored in the
+    // hand frame's y, which this gives
+    const Mat3 mirror = Vec3(1.0, -1.0, 1.0).asDiagonal();
+    const auto reflect = [&](Pose* p) {
+      p->t = mirror * p->t;
+      p->R = mirror * p->R * mirror;
+    };
+    reflect(hand);
+    // (the chain back from a tip bends about its phalanges' y, which the mirror
+    // reverses twice: the same angles give the mirrored chain)
+    for (int f = 0; f < fingers; ++f) reflect(&out[f].tip);
+  }
 }
 
 void SyntheticHand::Tips(double t, Vec3* tips) const {
@@ -185,8 +199,8 @@ void AppendWholeHand(const SyntheticHand& h, double t, std::string* s) {
   h.WholeHandPose(t, &hand, f);
   const int nf = h.fingers == 3 ? 3 : 5;
   char buf[256];
-  std::snprintf(buf, sizeof(buf), "gl 1 [0 1.000 1 %d][%.3f %.3f %.3f]", nf, 1e3 * hand.t.x(), 1e3 * hand.t.y(),
-                1e3 * hand.t.z());
+  std::snprintf(buf, sizeof(buf), "gl 1 [0 1.000 %d %d][%.3f %.3f %.3f]", h.right ? 1 : 0, nf, 1e3 * hand.t.x(),
+                1e3 * hand.t.y(), 1e3 * hand.t.z());
   *s += buf;
   AppendMatrix(s, hand.R);
   for (int i = 0; i < nf; ++i) {
@@ -248,7 +262,11 @@ SyntheticHand SyntheticHandFor(const TrackerConfig& c) {
     fingers = std::max(fingers, f.finger + 1);
     whole |= f.segment != ESegment::Tip;
   }
-  if (whole) return SyntheticHand::WholeHand(fingers, 3.0);
+  if (whole) {
+    SyntheticHand h = SyntheticHand::WholeHand(fingers, 3.0);
+    h.right = c.hand_side != 0;
+    return h;
+  }
   SyntheticHand h;
   h.fingers = fingers > 3 ? 5 : 3;
   return h;

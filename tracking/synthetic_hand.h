@@ -12,6 +12,8 @@
 // the faces, lifts the box `lift_mm`, holds it `hold_s`, opens and rises. With
 // `pinch`, a precision pinch instead: the palm 5 mm over the lid, the index's and
 // the thumb's outer phalanges on the far and near faces, the other fingers stretched.
+// A left whole hand is the right one mirrored in the room's y (the box is centred on
+// y = 0): the same grasp, the thumb on the other side.
 #pragma once
 
 #include <cstdint>
@@ -37,6 +39,7 @@ struct SyntheticHand {
   double hold_s = 3.0;         ///< whole hand: the hold with the box lifted
   bool pinch = false;          ///< whole hand: a precision pinch (thumb and index tips) instead of the power grasp
   double size_scale = 1.0;     ///< whole hand: the average adult hand's phalanx lengths and fingertip radii times this
+  bool right = true;           ///< whole hand: false sends a left hand (gl's lr 0), the right one mirrored in the room's y
 
   /// A whole hand of `fingers` fingers (duration_s set from hold_s).
   static SyntheticHand WholeHand(int fingers, double hold_s);
@@ -52,7 +55,8 @@ struct SyntheticHand {
 };
 
 /// The synthetic hand that drives a scene's tracker: the whole hand (power grasp)
-/// when it follows a tracked hand's segments, with its number of fingers; else
+/// when it follows a tracked hand's segments, with its number of fingers and its
+/// side (a left hand for a scene's `side: left`); else
 /// the fingertips' hand, with five fingers when it follows ring or little.
 SyntheticHand SyntheticHandFor(const TrackerConfig& c);
 

@@ -632,9 +632,10 @@ TEST(WholeHand, LiveWaitsForTheTrackerToSizeTheHandAndStopsOnCtrlC) {
 // steps the scene on the synthetic whole hand's datagrams at 100 Hz, in simulated time
 class Session {
  public:
-  explicit Session(const std::string& text, bool pinch = false, double hold_s = 3.0)
+  explicit Session(const std::string& text, bool pinch = false, double hold_s = 3.0, bool right = true)
       : hand_(SyntheticHand::WholeHand(5, hold_s)) {
     hand_.pinch = pinch;
+    hand_.right = right;
     const std::string path =
         std::filesystem::temp_directory_path() / ("graspsim_whole_hand_" + std::to_string(getpid()) + ".yaml");
     std::ofstream(path) << text;
@@ -846,6 +847,43 @@ TEST(WholeHand, PowerGraspCannotLiftTheBoxAtFrictionOneTenth) {
   const Hold h = RunGrasp(Replace(SceneText(), "default: 0.5", "default: 0.1"), 2.2);
   EXPECT_LT(h.lifted, 0.0302 + 0.01);
   EXPECT_TRUE(h.finite);
+}
+
+TEST(WholeHand, SyntheticLeftHandIsTheRightOneMirroredAndLiftsTheBox) {
+  Mapped right, left;
+  std::string error;
+  ASSERT_TRUE(Build(SceneText(), &right.scene, &error)) << error;
+  ASSERT_TRUE(Build(Replace(SceneText(), "side: right", "side: left"), &left.scene, &error)) << error;
+  left.hand.right = false;
+  EXPECT_NE(left.hand.Datagram(1.5, 1).find("gl 1 [0 1.000 0 5]"), std::string::npos);  // lr 0: left
+  for (double t : {0.3, 1.5, 3.0}) {
+    right.Parse(t);
+    right.Map();
+    left.Parse(t);
+    left.Map();
+    ASSERT_EQ(left.sample.count, 16);
+    // every target of the left scene is the right scene's mirrored in the room's y
+    const Mat3 mirror = Vec3(1.0, -1.0, 1.0).asDiagonal();
+    for (const FingertipMap& f : left.scene.tracker.fingertips) {
+      const int l = left.Target(f.body), r = right.Target(f.body);
+      ASSERT_TRUE(left.sample.valid[l]) << f.body;
+      EXPECT_LT((left.sample.pose[l].t - mirror * right.sample.pose[r].t).norm(), 2e-6) << f.body << " at " << t;
+      EXPECT_LT((left.sample.pose[l].R - mirror * right.sample.pose[r].R * mirror).norm(), 1e-4) << f.body;
+    }
+  }
+  // the scene's synthetic hand is a left one (bench step --scene, live tests), and it grasps
+  app::TrackedSim sim;
+  const std::string path = std::filesystem::temp_directory_path() / ("graspsim_left_" + std::to_string(getpid()) + ".yaml");
+  std::ofstream(path) << Replace(SceneText(), "side: right", "side: left");
+  ASSERT_TRUE(sim.Load(path, &error)) << error;
+  std::filesystem::remove(path);
+  EXPECT_FALSE(SyntheticHandFor(sim.config()).right);
+  Session s(Replace(SceneText(), "side: right", "side: left"), false, 3.0, false);
+  ASSERT_TRUE(s.ok());
+  s.RunTo(3.0);
+  const World& w = s.sim().world();
+  EXPECT_GT(w.bodies[s.sim().scene().tracked_body].pose.t.z(), 0.0302 + 0.04);
+  EXPECT_EQ(w.rejected_steps, 0);
 }
 
 TEST(WholeHand, PowerGraspWithSelfContactHoldsTheBox) {
