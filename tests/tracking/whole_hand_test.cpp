@@ -849,6 +849,35 @@ TEST(WholeHand, PowerGraspCannotLiftTheBoxAtFrictionOneTenth) {
   EXPECT_TRUE(h.finite);
 }
 
+// the hand section as a user writes it with the defaults: the palm and phalanges
+// unset, so two-pass contact (`contact_points: true`) and the default densities
+std::string DefaultHandText() {
+  std::string text = SceneText();
+  for (const char* key : {"  palm: {", "  phalanx: {"}) {
+    const size_t at = text.find(key);
+    EXPECT_NE(at, std::string::npos) << key;
+    if (at != std::string::npos) text.erase(at, text.find('\n', at) + 1 - at);
+  }
+  return text;
+}
+
+TEST(WholeHand, PowerGraspWithTheHandsDefaultsHoldsAtFrictionHalfAndNotAtOneTenth) {
+  app::BuiltScene b;
+  std::string error;
+  ASSERT_TRUE(Build(DefaultHandText(), &b, &error)) << error;
+  EXPECT_TRUE(b.world.bodies[BodyIndex(b.world, "palm")].emits_contacts);  // two-pass
+  EXPECT_TRUE(b.world.bodies[BodyIndex(b.world, "index_outer")].emits_contacts);
+  const Hold h = RunGrasp(DefaultHandText(), 5.0);
+  EXPECT_GT(h.lifted, 0.0302 + 0.04);
+  EXPECT_GT(h.lowest, h.lifted - 0.003);
+  EXPECT_LT(h.highest, h.lifted + 0.003);
+  EXPECT_TRUE(h.finite);
+  EXPECT_EQ(h.rejected, 0);
+  const Hold slip = RunGrasp(Replace(DefaultHandText(), "default: 0.5", "default: 0.1"), 2.2);
+  EXPECT_LT(slip.lifted, 0.0302 + 0.01);
+  EXPECT_TRUE(slip.finite);
+}
+
 TEST(WholeHand, SyntheticLeftHandIsTheRightOneMirroredAndLiftsTheBox) {
   Mapped right, left;
   std::string error;
