@@ -8,22 +8,30 @@
 namespace gs {
 namespace {
 
-// One pushing contact on the body: where, its normal force on the body and the
-// tangent plane's basis.
+// One pushing contact on the body: where its forces act, its normal force on the
+// body and the tangent plane's basis.
 struct Push {
   Vec3 x, n, t1, t2;
+  Vec3 spin = Vec3::Zero();    ///< the normal force's torque per newton beyond x's (where the surfaces touch)
   double N = 0.0;
   Vec3 t_step = Vec3::Zero();  ///< the step's tangential force on the body
 };
 
 std::vector<Push> Pushes(const World& w, int body) {
   std::vector<Push> out;
+  const Body& b = w.bodies[body];
+  // a free body's rows say where their forces act on it (ContactSide::lever, spin):
+  // at the material point (a deformable body's anchor displaced by u), the normal
+  // force about where the rest surfaces touch; other bodies' rows at the contact point
+  const bool free = b.articulation >= 0 && w.articulations[b.articulation].finger < 0;
   for (const ContactRow& r : w.rows) {
     // the row's force frame^T r acts on body[0]; body[1] gets its opposite
-    const double s = r.contact.body[0] == body ? 1.0 : (r.contact.body[1] == body ? -1.0 : 0.0);
-    if (s == 0.0 || !(r.r.x() > 0.0)) continue;
+    const int k = r.contact.body[0] == body ? 0 : (r.contact.body[1] == body ? 1 : -1);
+    if (k < 0 || !(r.r.x() > 0.0)) continue;
+    const double s = k == 0 ? 1.0 : -1.0;
     Push p;
-    p.x = r.world_point;
+    p.x = free ? Vec3(b.pose.t + r.side[k].lever) : r.world_point;
+    if (free) p.spin = s * r.side[k].spin;
     p.n = s * r.frame.row(0).transpose();
     p.t1 = r.frame.row(1).transpose();
     p.t2 = r.frame.row(2).transpose();
@@ -44,7 +52,7 @@ void Equilibrium(const std::vector<Push>& ps, const Vec3& c, const Vec3& weight,
   for (int i = 0; i < k; ++i) {
     const Push& p = ps[i];
     F += p.N * p.n;
-    M += (p.x - c).cross(p.N * p.n);
+    M += (p.x - c).cross(p.N * p.n) + p.N * p.spin;
     A->block<3, 1>(0, 2 * i) = p.t1;
     A->block<3, 1>(0, 2 * i + 1) = p.t2;
     A->block<3, 1>(3, 2 * i) = (p.x - c).cross(p.t1);

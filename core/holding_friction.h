@@ -4,12 +4,15 @@
 // the body in static equilibrium with its weight (forces and torques about its
 // centre). A grasp analysis independent of the solver: the tangential forces are
 // not the step's but the best ones, found by a barrier method over every
-// tangential distribution in equilibrium (a second-order cone program).
+// tangential distribution in equilibrium (a second-order cone program). On a free
+// body the forces act where the step applied them (ContactSide::lever: the material
+// point, on a deformable body the anchor displaced by u; the normal force about where
+// the rest surfaces touch, ContactSide::spin); on other bodies at the contact point.
 //
 // A body held by a hand whose friction drops below this mu cannot stay at rest
 // with these normal forces; above it, some distribution holds it. Used to check
-// that a simulated grasp lets go where Coulomb's law says it must (a precision
-// pinch's mu*, tests/tracking/whole_hand_test.cpp).
+// that a simulated grasp lets go where Coulomb's law says it must (the whole hand's
+// pinch and power grasp, tests/tracking/whole_hand_test.cpp).
 #pragma once
 
 #include "core/world.h"
