@@ -291,6 +291,10 @@ int Replay(const ReplayOptions& opt) {
     std::printf("replay: max coupling force %.2f N, max penetration %.3f mm, %lld rejected steps, %lld unconverged\n",
                 max_coupling, 1e3 * max_penetration, static_cast<long long>(w.rejected_steps),
                 static_cast<long long>(w.unconverged_steps));
+    if (w.pass_throughs_let > 0)
+      std::printf("replay: %lld steps let a body through another after %d rejected in a row; the last: %s\n",
+                  static_cast<long long>(w.pass_throughs_let), w.params.pass_through_retries,
+                  PassThroughText(w).c_str());
   }
 
   std::ostringstream js;
@@ -299,6 +303,7 @@ int Replay(const ReplayOptions& opt) {
      << "\",\"datagrams\":" << summary.datagrams << ",\"datagrams_applied\":" << next << ",\"steps\":" << step
      << ",\"interrupted\":" << (interrupted ? "true" : "false") << ",\"dt_s\":" << dt << ",\"simulated_s\":" << w.time << ",\"parse_errors\":" << ps.TotalErrors()
      << ",\"parse_errors_by_category\":" << ParseErrorsJson(ps) << ",\"rejected_steps\":" << w.rejected_steps
+     << ",\"pass_throughs_let\":" << w.pass_throughs_let
      << ",\"unconverged_steps\":" << w.unconverged_steps << ",\"max_coupling_force_N\":" << max_coupling
      << ",\"max_penetration_m\":" << max_penetration << ",\"state_hash\":\"" << StateHashHex(w) << "\"";
   if (tracked >= 0)

@@ -68,7 +68,8 @@ std::string SummaryJson(const BuiltScene& built, const RunOptions& opt, int64_t 
   js << "{\"scene\":\"" << built.name << "\",\"steps\":" << steps_done << ",\"dt_s\":" << w.params.dt
      << ",\"simulated_s\":" << simulated << ",\"wall_s\":" << wall << ",\"interrupted\":"
      << (interrupted ? "true" : "false") << ",\"rejected_steps\":" << w.rejected_steps
-     << ",\"pass_through_steps\":" << w.pass_through_steps << ",\"every\":" << opt.every
+     << ",\"pass_through_steps\":" << w.pass_through_steps << ",\"pass_throughs_let\":" << w.pass_throughs_let
+     << ",\"every\":" << opt.every
      << ",\"unconverged_steps\":" << w.unconverged_steps << ",\"residual_max\":" << residual_max
      << ",\"state_hash\":\"" << StateHashHex(w) << "\"";
   if (tracked >= 0)
@@ -194,9 +195,12 @@ int Run(const RunOptions& opt) {
   if (interrupted) return kExitInterrupted;
   if (!frames_ok) return kExitFailure;
   // a body that went through another is a failed run, even though its steps were undone
-  if (w.pass_through_steps > 0) {
-    std::fprintf(stderr, "graspsim run: %lld steps rejected because a body passed through another; the last: %s\n",
-                 static_cast<long long>(w.pass_through_steps), PassThroughText(w).c_str());
+  if (w.pass_through_steps > 0 || w.pass_throughs_let > 0) {
+    std::fprintf(stderr,
+                 "graspsim run: %lld steps rejected because a body passed through another (%lld let through after %d "
+                 "rejected in a row); the last: %s\n",
+                 static_cast<long long>(w.pass_through_steps), static_cast<long long>(w.pass_throughs_let),
+                 w.params.pass_through_retries, PassThroughText(w).c_str());
     return kExitFailure;
   }
   return kExitOk;

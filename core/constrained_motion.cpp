@@ -124,13 +124,32 @@ void MoveControlPoints(World& w) {
   }
 }
 
+// a pass-through rejects the step, unless the same pair was rejected the last
+// pass_through_retries steps in a row: then it is let through (WorldParams)
+bool PassThroughRejected(World& w) {
+  const PassThrough before = w.last_pass_through;
+  if (!FindPassThrough(w)) {
+    w.pass_through_streak = 0;
+    return false;
+  }
+  const PassThrough& now = w.last_pass_through;
+  const bool same = now.body == before.body && now.other == before.other;
+  w.pass_through_streak = same && w.pass_through_streak > 0 ? w.pass_through_streak + 1 : 1;
+  if (w.pass_through_streak > w.params.pass_through_retries) {
+    ++w.pass_throughs_let;
+    w.pass_through_streak = 0;
+    return false;
+  }
+  return true;
+}
+
 }  // namespace
 
 void ConstrainedMotion(World& w) {
   if (const char* why = NonFiniteStage(w)) MarkRejected(w, why);
   if (!w.profile.rejected) {
     MoveArticulations(w);
-    if (FindPassThrough(w)) MarkRejected(w, kPassThroughReason);
+    if (PassThroughRejected(w)) MarkRejected(w, kPassThroughReason);
   }
   if (w.profile.rejected) {
     Undo(w);

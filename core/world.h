@@ -288,6 +288,14 @@ struct WorldParams {
   /// the body (a 4 mm overlap removed in one 1 ms step would leave at 4 m/s).
   /// Overlap made by the step's own free motion is always removed at once.
   double max_push_out_speed = 0.1;
+  /// A step in which a body's centre passes into another body is rejected (the last
+  /// state kept, FindPassThrough) so that a passing glitch, a tracker's bad frame,
+  /// cannot throw a body through another. Each retry is the same step again while
+  /// nothing changes; after this many rejected steps in a row for the same pair the
+  /// step is let through (counted in World::pass_throughs_let): a tracked hand pulled
+  /// through an object goes on instead of freezing the world for as long as the
+  /// pull lasts (it stayed frozen after the tracked hand had left). 0: never reject.
+  int pass_through_retries = 50;
   /// Reuse the merged influence and W_deform term of a contact side that is the
   /// same as in the last step (same contact key, same interpolation weights):
   /// exact, the copied values are the ones that would be recomputed. Off only to
@@ -414,7 +422,9 @@ class World {
   int64_t budget_stopped_steps = 0;  ///< of the unconverged steps, those ended by the time budget
   int64_t skipped_solves = 0;        ///< of those, steps that did not sweep (StepProfile::solve_skipped)
   int64_t pass_through_steps = 0;    ///< of the rejected steps, those where a body passed through another
-  PassThrough last_pass_through;     ///< the last of them
+  int64_t pass_throughs_let = 0;     ///< steps accepted with a pass-through after pass_through_retries rejections
+  int pass_through_streak = 0;       ///< rejected steps in a row for last_pass_through's pair
+  PassThrough last_pass_through;     ///< the last of them (rejected or let through)
 
   /// Friction coefficient of a body pair (default unless set).
   double Friction(int a, int b) const;
