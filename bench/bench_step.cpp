@@ -38,40 +38,31 @@ class Driver {
       built_ = std::move(built);
       return true;
     }
-    sim_ = std::make_unique<TrackedSim>();
-    if (!sim_->Load(path, error, SyntheticSizing())) return false;
-    hand_ = tracking::SyntheticHandFor(sim_->config());
-    hand_.pinch = pinch && hand_.whole_hand;
+    drive_ = std::make_unique<SyntheticDrive>();
+    if (!drive_->Load(path, error)) return false;
+    drive_->hand().pinch = pinch && drive_->hand().whole_hand;
     return true;
   }
-  World& world() { return sim_ ? sim_->world() : built_->world; }
-  const std::string& name() const { return sim_ ? sim_->scene().name : built_->name; }
+  World& world() { return drive_ ? drive_->world() : built_->world; }
+  const std::string& name() { return drive_ ? drive_->sim().scene().name : built_->name; }
   /// the hold: a second from 1 s (scripted), or in the synthetic hand's hold
-  double HoldStart() const { return !sim_ ? 1.0 : (hand_.whole_hand ? 2.1 : 1.95); }
-  double HoldLength(bool quick) const { return !sim_ || hand_.whole_hand ? (quick ? 0.2 : 1.0) : (quick ? 0.2 : 0.3); }
+  double HoldStart() { return !drive_ ? 1.0 : (drive_->hand().whole_hand ? 2.1 : 1.95); }
+  double HoldLength(bool quick) {
+    return !drive_ || drive_->hand().whole_hand ? (quick ? 0.2 : 1.0) : (quick ? 0.2 : 0.3);
+  }
   void Step() {
-    World& w = world();
-    if (!sim_) {
-      built_->script.Apply(w, w.time + w.params.dt);
-      w.Step();
+    if (drive_) {
+      drive_->Step();
       return;
     }
-    if (w.time >= next_sample_ - 0.5 * w.params.dt) {
-      const std::string d = hand_.Datagram(next_sample_, frame_++);
-      tracking::TargetSample sample;
-      sim_->Ingest(d.data(), d.size(), false, &sample);
-      sim_->Push(sample);
-      next_sample_ += 0.01;
-    }
-    sim_->Step();
+    World& w = built_->world;
+    built_->script.Apply(w, w.time + w.params.dt);
+    w.Step();
   }
 
  private:
   std::unique_ptr<BuiltScene> built_;
-  std::unique_ptr<TrackedSim> sim_;
-  tracking::SyntheticHand hand_;
-  double next_sample_ = 0.0;
-  uint32_t frame_ = 1;
+  std::unique_ptr<SyntheticDrive> drive_;
 };
 
 }  // namespace

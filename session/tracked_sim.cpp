@@ -139,4 +139,27 @@ void TrackedSim::Step() {
   w.Step();
 }
 
+bool SyntheticDrive::Load(const std::string& path, std::string* error) {
+  if (!sim_.Load(path, error, SyntheticSizing())) return false;
+  hand_ = tracking::SyntheticHandFor(sim_.config());
+  return true;
+}
+
+void SyntheticDrive::Step() {
+  World& w = sim_.world();
+  if (w.time >= next_sample_ - 0.5 * w.params.dt) {
+    const std::string d = hand_.Datagram(next_sample_, frame_++);
+    tracking::TargetSample sample;
+    sim_.Ingest(d.data(), d.size(), false, &sample);
+    sim_.Push(sample);
+    next_sample_ += 0.01;
+  }
+  sim_.Step();
+}
+
+void SyntheticDrive::RunTo(double t) {
+  World& w = sim_.world();
+  while (w.time < t - 0.5 * w.params.dt) Step();
+}
+
 }  // namespace gs::app

@@ -10,6 +10,7 @@
 
 #include "scene/scene_file.h"
 #include "tracking/dtrack_parser.h"
+#include "tracking/synthetic_hand.h"
 #include "tracking/target_follower.h"
 
 namespace gs::app {
@@ -64,6 +65,29 @@ class TrackedSim {
   tracking::DTrackParser parser_;
   tracking::DTrackFrame frame_;
   tracking::TargetFollower follower_;
+};
+
+/// A tracked scene driven in simulated time by the synthetic hand its tracker
+/// follows (tracking::SyntheticHandFor: a whole hand's power grasp, with its side),
+/// the hand's datagrams at 100 Hz, a `sizes: tracker` hand sized by its first
+/// (`bench step --scene`, `validate whole-hand`).
+class SyntheticDrive {
+ public:
+  bool Load(const std::string& path, std::string* error);
+  TrackedSim& sim() { return sim_; }
+  World& world() { return sim_.world(); }
+  /// the hand (set `pinch`, `hold_s` and `duration_s` before the first step)
+  tracking::SyntheticHand& hand() { return hand_; }
+  /// the next datagram when its time has come, then one step
+  void Step();
+  /// steps until the world's time reaches t
+  void RunTo(double t);
+
+ private:
+  TrackedSim sim_;
+  tracking::SyntheticHand hand_;
+  double next_sample_ = 0.0;
+  uint32_t frame_ = 1;
 };
 
 }  // namespace gs::app

@@ -22,6 +22,7 @@ const Family kFamilies[] = {
     {"paper-grasp", ValidatePaperGrasp},
     {"stack", ValidateStack},
     {"scale", ValidateScale},
+    {"whole-hand", ValidateWholeHand},
 };
 
 }  // namespace

@@ -48,6 +48,12 @@ std::vector<ValidationResult> ValidateStack(const ValidationOptions& opt);
 /// The stack with every mass x10 and x1000: the same trajectory and sweeps.
 std::vector<ValidationResult> ValidateScale(const ValidationOptions& opt);
 
+/// The tracked whole hand's pinch and power grasp (config/tracked_whole_hand.yaml,
+/// config/whole_hand_power_grasp.yaml, the synthetic hand), friction lowered in stages
+/// of the least holding friction mu* of the state it is in: holds at 1.01 mu*, slips at
+/// 0.99 mu* (the pinch falls out); both contact modes.
+std::vector<ValidationResult> ValidateWholeHand(const ValidationOptions& opt);
+
 /// Names accepted by `graspsim validate`.
 std::vector<std::string> ValidationNames();
 /// Runs one by name ("all" for every one); false when the name is unknown. Once a

@@ -124,6 +124,24 @@ TEST(Validation, PaperGraspHoldsTheBox) {
   EXPECT_NE(grasp->detail.find("0 at the sweep cap"), std::string::npos) << grasp->detail;
 }
 
+TEST(Validation, WholeHandHoldsAtOnePercentAboveItsHoldingFrictionAndSlipsBelow) {
+  // the pinch and the power grasp of the tracked whole hand, both contact modes
+  const auto v = ValidateWholeHand(Quick());
+  ExpectAllPass(v);
+  for (const char* grasp : {"pinch", "power"})
+    for (const char* mode : {"one-pass", "two-pass"}) {
+      const std::string g(grasp);
+      const ValidationResult* hold = Find(v, "whole_hand_" + g + "_hold_" + mode, mode);
+      const ValidationResult* release = Find(v, "whole_hand_" + g + "_release_" + mode, mode);
+      ASSERT_NE(hold, nullptr) << grasp << " " << mode;
+      ASSERT_NE(release, nullptr) << grasp << " " << mode;
+      EXPECT_EQ(hold->detail.find("OUTSIDE"), std::string::npos) << hold->detail;
+      // the pinch falls out of the hand below mu*; the power grasp re-seats on its phalanges
+      EXPECT_NE(release->detail.find(g == "pinch" ? "out of the hand" : "re-seated each time"), std::string::npos)
+          << release->detail;
+    }
+}
+
 TEST(Validation, UnknownNameIsRefused) {
   std::vector<ValidationResult> out;
   EXPECT_FALSE(RunValidation("no-such-case", Quick(), &out));

@@ -16,7 +16,6 @@
 #include <thread>
 
 #include "core/hand.h"
-#include "core/holding_friction.h"
 #include "core/virtual_coupling.h"
 #include "scene/scene_file.h"
 #include "session/tracked_sim.h"
@@ -1004,147 +1003,9 @@ std::string PinchText() {
   return s.str();
 }
 
-// A grasp's friction threshold, as Coulomb's law states it: with the normal forces
-// of a held state, mu* is the least friction with which some tangential forces keep
-// the box at rest (core/holding_friction.h). The friction between the box and the
-// hand is lowered in stages of 0.5 s, each set to a ratio of mu* measured at the
-// stage's start: the box holds at 1.01 mu* and, at 0.99 mu*, cannot stay where it is.
-// A compliant grasp's mu* moves with the state (a slip of a few hundredths to tenths
-// of a millimetre shifts it by about 1 %, either way), so it is measured again at
-// every stage rather than once at the first switch.
-struct GraspStage {
-  double mu_star = 0.0;      ///< at the stage's start (a static instant)
-  double mu = 0.0;           ///< the friction set
-  double sank = 0.0;         ///< how far the box went down over the stage (m)
-  double last_tenth = 0.0;   ///< of which in its last 0.1 s
-  HoldingFriction end;       ///< at the stage's end (its first static instant)
-  double step_ratio = 0.0;   ///< then, the step's own largest |t| / N on the box
-};
-
-// mu* at the first static instant from now (the box's own forces balance its
-// weight in the normal directions, where friction cannot help), waiting up to 0.2 s
-HoldingFriction StaticHoldingFriction(Session& s, int box) {
-  World& w = s.sim().world();
-  HoldingFriction h = LeastHoldingFriction(w, box);
-  for (int i = 0; i < 200 && !std::isfinite(h.mu); ++i) {
-    s.RunTo(w.time + w.params.dt);
-    h = LeastHoldingFriction(w, box);
-  }
-  return h;
-}
-
-// the largest |t| / N of the step's contacts between the box and the hand
-double StepFrictionRatio(const World& w, int box) {
-  double ratio = 0.0;
-  for (const ContactRow& r : w.rows) {
-    const int other = r.contact.body[0] == box ? r.contact.body[1] : (r.contact.body[1] == box ? r.contact.body[0] : -1);
-    if (other < 0 || (w.bodies[other].motion != EMotion::Fingertip && w.bodies[other].name != "palm")) continue;
-    if (r.r.x() > 0.0) ratio = std::max(ratio, std::hypot(r.r.y(), r.r.z()) / r.r.x());
-  }
-  return ratio;
-}
-
-GraspStage RunGraspStage(Session& s, int box, double ratio) {
-  World& w = s.sim().world();
-  GraspStage out;
-  out.mu_star = StaticHoldingFriction(s, box).mu;
-  if (!std::isfinite(out.mu_star)) return out;
-  out.mu = ratio * out.mu_star;
-  for (int i = 0; i < static_cast<int>(w.bodies.size()); ++i)
-    if (i != box && (w.bodies[i].motion == EMotion::Fingertip || w.bodies[i].name == "palm"))
-      w.SetFriction(box, i, out.mu);
-  const double z0 = w.bodies[box].pose.t.z();
-  const double end = w.time + 0.5;
-  s.RunTo(end - 0.1);
-  const double z1 = w.bodies[box].pose.t.z();
-  s.RunTo(end);
-  out.sank = z0 - w.bodies[box].pose.t.z();
-  out.last_tenth = z1 - w.bodies[box].pose.t.z();
-  // a box still in the hand: its next static instant; one falling out: now
-  out.end = out.sank < 0.02 ? StaticHoldingFriction(s, box) : LeastHoldingFriction(w, box);
-  out.step_ratio = StepFrictionRatio(w, box);
-  return out;
-}
-
-// a held stage is within Coulomb's law both ways: the step's own forces are one
-// holding distribution (they balance the box's 1.47 N, force and torque, to the
-// solver's tolerance, 1e-4, and stay within mu), so the least one needs no more than
-// theirs (with the torque arms to where the forces act: to the contact points, the
-// torque was off by 2e-3 N m in the power grasp and mu* by 0.3 %)
-void ExpectStaticHold(const GraspStage& st, const std::string& label) {
-  EXPECT_LT(st.end.net_force, 1.5e-4) << label;
-  EXPECT_LT(st.end.net_torque, 5e-6) << label;
-  EXPECT_LE(st.step_ratio, st.mu * (1.0 + 1e-6)) << label;
-  EXPECT_LE(st.end.mu, st.step_ratio * (1.0 + 1e-3)) << label;
-}
-
-// a grasp of the synthetic hand held at the scene's friction until 3 s, then released
-// in stages: it holds at 1.01 mu*; at 0.99 mu* it slips every stage, each ending out
-// of the hand (`must_fall`: within four stages) or in a state friction mu holds
-void ExpectGraspLetsGoWhereCoulombsLawSays(const std::string& text, bool pinch, bool must_fall) {
-  Session s(text, pinch, 6.0);  // a 6 s hold outlasts every stage
-  ASSERT_TRUE(s.ok());
-  const World& w = s.sim().world();
-  const int box = s.sim().scene().tracked_body;
-  s.RunTo(3.0);
-  const HoldingFriction hold = StaticHoldingFriction(s, box);
-  EXPECT_GE(hold.contacts, 4);
-  EXPECT_GT(hold.mu, 0.2);  // within the pads' bounds for this box and squeeze
-  EXPECT_LT(hold.mu, 0.6);
-  EXPECT_LT(hold.net_force, 1.5e-3);  // the step's own forces balance the weight (1.47 N)
-  // 3 % above: the tangential forces leave the distribution the scene's friction
-  // allowed for one within the tighter cones, the box slipping under a millimetre
-  const GraspStage settle = RunGraspStage(s, box, 1.03);
-  EXPECT_LT(settle.sank, 1e-3);
-  EXPECT_LT(settle.last_tenth, 1e-5);
-  // 1 % above, twice: it stays put
-  for (int k = 0; k < 2; ++k) {
-    const GraspStage st = RunGraspStage(s, box, 1.01);
-    const std::string label = "1.01 mu*, stage " + std::to_string(k) + ", mu " + std::to_string(st.mu);
-    ASSERT_TRUE(std::isfinite(st.mu_star)) << "no static instant before " << label;
-    EXPECT_LT(st.sank, 2e-4) << label;
-    EXPECT_LT(std::abs(st.last_tenth), 1e-6) << label;
-    ExpectStaticHold(st, label);
-  }
-  // 1 % below: it cannot stay. It slips, out of the hand or into a state that
-  // friction mu holds (mu* moves with the slip); the next stage, 1 % below that
-  // state's mu*, slips again
-  bool fell = false;
-  for (int k = 0; k < 4 && !fell; ++k) {
-    const GraspStage st = RunGraspStage(s, box, 0.99);
-    const std::string label = "0.99 mu*, stage " + std::to_string(k) + ", mu " + std::to_string(st.mu);
-    ASSERT_TRUE(std::isfinite(st.mu_star)) << "no static instant before " << label;
-    EXPECT_GT(st.sank, 2e-5) << "stayed at " << label;
-    fell = st.sank > 0.02;
-    if (!fell) ExpectStaticHold(st, label);
-  }
-  EXPECT_EQ(fell, must_fall);
-  EXPECT_TRUE(AllFinite(w));
-}
-
-std::string TwoPass(std::string text) {
-  for (int i = 0; i < 2; ++i) text = Replace(text, "contact_points: false", "contact_points: true");
-  return text;
-}
-
-TEST(WholeHand, PrecisionPinchLetsGoWhereCoulombsLawSays) {
-  ExpectGraspLetsGoWhereCoulombsLawSays(PinchText(), true, true);
-}
-
-TEST(WholeHand, PrecisionPinchLetsGoWhereCoulombsLawSaysInTwoPassContact) {
-  ExpectGraspLetsGoWhereCoulombsLawSays(TwoPass(PinchText()), true, true);
-}
-
-// the power grasp wraps the box: each slip at 0.99 mu* sinks it onto the curled
-// phalanges, which then carry more of it (its mu* falls 1.5 to 2 % a stage), and
-// it does not fall out
-TEST(WholeHand, PowerGraspSlipsWhereCoulombsLawSays) {
-  ExpectGraspLetsGoWhereCoulombsLawSays(SceneText(), false, false);
-}
-
-TEST(WholeHand, PowerGraspSlipsWhereCoulombsLawSaysInTwoPassContact) {
-  ExpectGraspLetsGoWhereCoulombsLawSays(TwoPass(SceneText()), false, false);
-}
+// The friction threshold (hold at 1.01 mu*, slip at 0.99 mu*, both contact modes) of
+// the pinch and the power grasp: `graspsim validate whole-hand`
+// (validate/validate_whole_hand.cpp, tests/app/validation_test.cpp).
 
 TEST(WholeHand, PrecisionPinchHoldsTheBoxAtFrictionPointEightAndNotAtPointFour) {
   const Hold h = RunGrasp(PinchText(), 5.0, true);
