@@ -12,7 +12,7 @@
 // A body held by a hand whose friction drops below this mu cannot stay at rest
 // with these normal forces; above it, some distribution holds it. Used to check
 // that a simulated grasp lets go where Coulomb's law says it must (the whole hand's
-// pinch and power grasp, tests/tracking/whole_hand_test.cpp).
+// pinch and power grasp, validate/validate_whole_hand.cpp).
 #pragma once
 
 #include "core/world.h"
