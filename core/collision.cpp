@@ -445,12 +445,14 @@ bool FarAboveFit(const SphereTree& ts, int l, const Vec3& x, double h, double fa
 // within the kernel's support (the leaf follows the iterate). Where the leaf's
 // cached patch is trusted (a smooth surface there, on which the foot of x is the
 // same from any start near it) the fits start on the patch's point closest to x, usually one
-// fit from converged; elsewhere (sharp edges) they start at x, like the reference.
+// fit from converged; elsewhere (sharp edges, a capsule's rim) they start at `warm`
+// when given (the foot of a nearby earlier x: the same foot the start at x found,
+// moved with x) or else at x, like the reference.
 bool ProjectNear(const SphereTree& ts, const Vec3* pos, const Vec3* nrm, const Vec3& x, const MlsParams& mls,
-                 double far, int* leaf, CollisionScratch* s, MlsProjection* out) {
+                 double far, int* leaf, CollisionScratch* s, MlsProjection* out, const Vec3* warm) {
   const double support = mls.support * mls.bandwidth;
   const MlsPatch* patch = ts.leaf_patch(*leaf);
-  Vec3 q = patch ? patch->Closest(x) : x;
+  Vec3 q = patch ? patch->Closest(x) : (warm ? *warm : x);
   // Where the leaf's patch was checked at build to stay within kPatchExact * h of
   // the MLS surface over the whole leaf (flat faces, gently curved ones), the
   // foot of x on the patch is its foot on the surface to that accuracy: no fit.
@@ -686,6 +688,20 @@ bool Remembered(const PairCache::FarMark& m, const Vec3& x, int ls, double thr) 
   return spare > 0.0 && (x - m.x).squaredNorm() < spare * spare;
 }
 
+// Whether a control point now at x, coupled to leaf ls, keeps the foot of its mark:
+// coupled to the same leaf, it has moved less than `keep` from where that foot was
+// found (a converged foot is that far off already). Its distance to the surface then
+// changes by the motion along the normal, to second order in the motion.
+bool KeepsFoot(const PairCache::FarMark& m, const Vec3& x, int ls, double keep) {
+  return m.foot_leaf >= 0 && m.coupled == ls && (x - m.x).squaredNorm() < keep * keep;
+}
+
+// the start of a control point's next projection: its kept foot while it is near
+// where the foot was found (a tenth of the bandwidth), else none
+const Vec3* WarmStart(const PairCache::FarMark& m, const Vec3& x, int ls, double h) {
+  return m.foot_leaf >= 0 && m.coupled == ls && (x - m.x).squaredNorm() < 0.01 * h * h ? &m.foot : nullptr;
+}
+
 // How far a converged projection's gap may be from the distance to the MLS surface:
 // a patch's error over its leaf when the patch served it (no fit), else what the
 // fits still had to move (below the tolerance, 20 times that after a trusted start).
@@ -711,6 +727,9 @@ void ProjectSide(int id_q, const SphereTree& tq, const Pose& q_to_s, int id_s, c
   const Vec3* nrm = surf.cloud->normals.data();
   const double h = surf.mls.bandwidth;
   MlsParams mls = surf.mls;
+  // feet are kept where the marks serve (at the body's own bandwidth)
+  const bool feet = mark && params.foot_memory;
+  const double keep = kContraction * mls.tolerance * h;
   for (int lq : *touched) {
     const int ls = (*best)[lq];
     const double d2 = (*best_d2)[lq];
@@ -733,18 +752,31 @@ void ProjectSide(int id_q, const SphereTree& tq, const Pose& q_to_s, int id_s, c
     }
     MlsProjection proj;
     int coupled = ls;
-    ++stats->projections;
-    const bool ok = ProjectNear(ts, pos, nrm, x, mls, params.far_stop ? params.contact_threshold : kNoFarStop,
-                                &coupled, s, &proj);
-    stats->fits += proj.iterations;
-    if (ok && proj.far) {
-      ++stats->far;
-      if (mark) mark[lq] = {x, proj.outside, ls};
-      continue;
-    }
-    if (!ok || !proj.point.allFinite() || !proj.normal.allFinite()) {
-      ++stats->rejected;
-      continue;
+    const bool kept = feet && KeepsFoot(mark[lq], x, ls, keep);
+    if (kept) {
+      ++stats->feet_kept;
+      proj.point = mark[lq].foot;
+      proj.normal = mark[lq].normal;
+      proj.converged = true;
+      coupled = mark[lq].foot_leaf;
+    } else {
+      ++stats->projections;
+      const bool ok = ProjectNear(ts, pos, nrm, x, mls, params.far_stop ? params.contact_threshold : kNoFarStop,
+                                  &coupled, s, &proj, feet ? WarmStart(mark[lq], x, ls, h) : nullptr);
+      stats->fits += proj.iterations;
+      if (ok && proj.far) {
+        ++stats->far;
+        if (mark) mark[lq] = {x, proj.outside, ls};
+        continue;
+      }
+      if (!ok || !proj.point.allFinite() || !proj.normal.allFinite()) {
+        ++stats->rejected;
+        if (mark) mark[lq] = {};
+        continue;
+      }
+      // its foot when converged (how far outside x stands is known once it gives no contact)
+      if (mark) mark[lq] = {x, -std::numeric_limits<double>::infinity(), ls, proj.converged ? coupled : -1, proj.point,
+                            proj.normal};
     }
     // a projection outside the coupled node's border is a curvature artefact (the
     // node coupled by the traversal, not the leaf the projection ended in)
@@ -775,7 +807,7 @@ void ProjectSide(int id_q, const SphereTree& tq, const Pose& q_to_s, int id_s, c
       continue;
     }
     if (!(gap < params.contact_threshold)) {
-      if (mark) mark[lq] = {x, gap - FootError(ts, coupled, proj, mls), ls};
+      if (mark && !kept) mark[lq].outside = gap - FootError(ts, coupled, proj, mls);
       continue;
     }
     Contact c;
@@ -930,6 +962,7 @@ void CollisionStats::Add(const CollisionStats& o) {
   fits += o.fits;
   far += o.far;
   remembered += o.remembered;
+  feet_kept += o.feet_kept;
   rejected += o.rejected;
   on_edges += o.on_edges;
   out_of_border += o.out_of_border;

@@ -70,6 +70,15 @@ struct CollisionParams {
   /// surfaces posed rigidly, so the margin holds for as long as the motion allows.
   /// false: every such point is projected every step (for checking the memory).
   bool far_memory = true;
+  /// true: with a PairCache, a control point whose projection converged keeps its
+  /// foot and the foot's normal (PairCache::FarMark). While it stays coupled to the
+  /// same leaf and within what a converged foot may be off (MlsParams::tolerance x h
+  /// x the fits' contraction, 1/20) of where it was projected, the kept foot serves
+  /// and its gap is measured anew (CollisionStats::feet_kept); a point that moved
+  /// farther is projected again, from its kept foot where the leaf has no trusted
+  /// patch (one fit instead of two in a hold). false: every point is projected from
+  /// the start a projection takes without memory (for measuring what it changes).
+  bool foot_memory = true;
   /// Leaf-pair cache (PairCache): the margin, as a fraction of the two trees' mean
   /// leaf radii, by which the cached traversal reaches beyond the contact threshold.
   /// The cache serves the following steps while the trees' relative motion plus
@@ -120,6 +129,7 @@ struct CollisionStats {
   int culled = 0;         ///< leaves skipped: above every overlapping leaf's slab by more than delta_eps
   int far = 0;            ///< projections stopped early: outside the surface by more than delta_eps
   int remembered = 0;     ///< control points not projected: an earlier step's projection found them outside by more than they moved since (far_memory)
+  int feet_kept = 0;      ///< control points not projected: they keep the foot of an earlier step's projection (foot_memory)
   int contacts = 0;       ///< contacts added
   int dropped = 0;        ///< contacts lost because the buffer was full
   int cache_hits = 0;     ///< body pairs whose leaf pairs came from their PairCache
@@ -197,14 +207,19 @@ struct PairCache {
   double wide_used = 0.0; ///< the wide list's margin used as of the last step (m; < 0: not yet seen)
   std::vector<uint64_t> next_stack;        ///< its traversal's node pairs still to descend
   std::vector<TraversalNode> next_nodes;   ///< the moved tree's nodes when it began
-  /// What an earlier projection of a control point proved: standing at x (the
+  /// What the last projection of a control point proved: standing at x (the
   /// surface body's rest frame), coupled to the surface's leaf `coupled`, it was
-  /// outside the surface by at least `outside` (m). Per leaf of a (on b) and of b
-  /// (on a); coupled < 0: nothing known.
+  /// outside the surface by at least `outside` (m; far_memory) and, when it
+  /// converged, its foot on the surface was `foot` with normal `normal`, ending in
+  /// the surface's leaf `foot_leaf` (foot_memory; < 0: no foot). Per leaf of a (on
+  /// b) and of b (on a); coupled < 0: nothing known.
   struct FarMark {
     Vec3 x = Vec3::Zero();
     double outside = 0.0;
     int coupled = -1;
+    int foot_leaf = -1;
+    Vec3 foot = Vec3::Zero();
+    Vec3 normal = Vec3::Zero();
   };
   std::vector<FarMark> far_a, far_b;
   bool reserved = false;  ///< the lists have their first capacity (they grow from it as the pair needs)

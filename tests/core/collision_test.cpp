@@ -281,6 +281,7 @@ TEST(Collision, FarMemoryLosesNoContact) {
   std::mt19937_64 rng(5);
   std::uniform_real_distribution<double> u01(0.0, 1.0);
   CollisionParams keep, forget;
+  keep.foot_memory = forget.foot_memory = false;  // kept feet move contacts within the tolerance: Collision.FootMemory...
   forget.far_memory = false;
   int contacts = 0, remembered = 0, projections = 0;
   for (int run = 0; run < 4; ++run) {
@@ -331,6 +332,86 @@ TEST(Collision, FarMemoryLosesNoContact) {
               projections);
   EXPECT_GT(contacts, 5000);
   EXPECT_GT(remembered, projections / 2);
+}
+
+// CollisionParams::foot_memory: a control point that has moved less than a converged
+// foot may be off (tolerance x h / 20) since its last projection keeps that foot, and
+// one that moved farther is projected again from it. A capsule (its rims have no
+// trusted patch: its feet there need fits) and the paper's fingertip rest 0.5 mm deep
+// in a box's top face, held as a hand holds them (drifts of 1 to 20 nm a step), with a
+// 10 um slide every 40 steps and a 1 mm jump every 150: every step's contacts are
+// those of the same pair projecting every point afresh, within what two converged
+// projections may differ by, and most points keep their feet. A memory that kept a
+// foot through the slides (or across coupled leaves) puts anchors micrometres off.
+TEST(Collision, KeptFeetAreTheFreshProjectionsWithinTheirTolerance) {
+  const Pressers p = MakePressers(2400, 320, 9000, 1200);
+  std::mt19937_64 rng(8);
+  std::uniform_real_distribution<double> u01(0.0, 1.0);
+  CollisionParams keep, fresh;
+  fresh.foot_memory = false;
+  int contacts = 0, kept = 0, projected = 0;
+  double worst_gap = 0.0, worst_anchor = 0.0;
+  for (int run = 0; run < 3; ++run) {
+    const Fixture& q = run == 2 ? *p.tip : *p.capsule;
+    const bool one_pass = run != 1;
+    CollisionShape a = q.shape(), b = p.box->shape();
+    a.emits_contacts = !one_pass;
+    // what two converged projections of one point may differ by, on either surface
+    const double h = std::max(a.mls.bandwidth, b.mls.bandwidth);
+    const double bound = 0.25 * a.mls.tolerance * h;
+    PairCache with, without;
+    for (PairCache* c : {&with, &without}) {
+      c->limit = 100000;
+      c->wide_limit = 200000;
+    }
+    CollisionScratch scratch;
+    scratch.Reserve(p.box->geom.tree.num_leaves(), 200000);
+    ContactBuffer on, off;
+    on.Reserve(20000);
+    off.Reserve(20000);
+    const Mat3 R0 = RandomRotation(rng);
+    const double reach = q.geom.tree.node(0).radius;
+    Vec3 at(0.004, -0.003, 0.03 + reach - 0.004 - 5e-4);
+    double turn = 0.0;
+    for (int k = 0; k < 450; ++k) {
+      at += Vec3(u01(rng) - 0.5, u01(rng) - 0.5, u01(rng) - 0.5) * 2e-8;
+      turn += 1e-8 * (u01(rng) - 0.5);
+      if (k % 40 == 39) at.x() += 1e-5;
+      if (k % 150 == 149) at.y() += 1e-3;
+      const Pose pq{Eigen::AngleAxisd(turn, Vec3::UnitZ()).toRotationMatrix() * R0, at};
+      on.Clear();
+      off.Clear();
+      CollisionStats s_on, s_off;
+      CollidePair(0, a, pq, 1, b, Pose{}, keep, &scratch, &on, &s_on, &with);
+      CollidePair(0, a, pq, 1, b, Pose{}, fresh, &scratch, &off, &s_off, &without);
+      EXPECT_EQ(s_off.feet_kept, 0);
+      std::map<uint64_t, const Contact*> by_key;
+      for (const Contact& c : on.items) by_key[c.key] = &c;
+      for (const Contact& d : off.items) {
+        const auto it = by_key.find(d.key);
+        if (it == by_key.end()) {
+          // only a point at the threshold may be a contact in one and not the other
+          EXPECT_GT(d.gap, keep.contact_threshold - bound) << "run " << run << " step " << k;
+          continue;
+        }
+        const Contact& c = *it->second;
+        worst_gap = std::max(worst_gap, std::abs(c.gap - d.gap));
+        worst_anchor = std::max(worst_anchor, (c.anchor[1] - d.anchor[1]).norm());
+        ASSERT_NEAR(c.gap, d.gap, bound) << "run " << run << " step " << k;
+        ASSERT_LT((c.anchor[1] - d.anchor[1]).norm(), bound) << "run " << run << " step " << k;
+        ASSERT_LT((c.normal - d.normal).norm(), 1e-3) << "run " << run << " step " << k;
+        by_key.erase(it);
+      }
+      for (const auto& [key, c] : by_key) EXPECT_GT(c->gap, keep.contact_threshold - bound) << "run " << run;
+      contacts += static_cast<int>(off.items.size());
+      kept += s_on.feet_kept;
+      projected += s_off.projections - s_off.far;
+    }
+  }
+  std::printf("kept feet: %d contacts, %d of %d converged projections kept; gaps within %.3g m, anchors %.3g m\n",
+              contacts, kept, projected, worst_gap, worst_anchor);
+  EXPECT_GT(contacts, 5000);
+  EXPECT_GT(kept, projected / 2);
 }
 
 TEST(Collision, SphereAgainstSphereAgreesWithBruteForce) {
