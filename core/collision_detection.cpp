@@ -2,17 +2,19 @@
 // phase on root spheres and the paper's two-tree traversal with MLS projection
 // for every pair that may touch (collision.h). Pairs of bodies that cannot move
 // (fixed or kinematic against fixed or kinematic) are not tested, nor pairs of
-// sleeping bodies (sleep.cpp).
+// sleeping bodies (sleep.cpp). With a runner (World::UseRunner) the pairs are
+// detected on its threads, each into its thread's lane, and their contacts gathered
+// in the pair loop's order: the same contacts as in one thread, bit for bit.
+#include <algorithm>
 #include <chrono>
 
 #include "core/world.h"
 
 namespace gs {
+namespace {
 
-void DetectCollisions(World& w) {
-  using Clock = std::chrono::steady_clock;
-  const auto t0 = Clock::now();
-  // refit only the trees whose control points moved
+// refits only the trees whose control points moved
+void RefitTrees(World& w) {
   for (Body& b : w.bodies) {
     if (!b.deform.enabled() || b.geometry.is_plane) continue;
     bool any = false;
@@ -24,35 +26,126 @@ void DetectCollisions(World& w) {
     w.profile.work.refit_nodes += rs.nodes_visited;
     std::fill(b.u_changed.begin(), b.u_changed.end(), 0);
   }
-  const auto t1 = Clock::now();
-  w.profile.refit = std::chrono::duration<double>(t1 - t0).count();
+}
 
-  w.contacts.Clear();
+PairCache* CacheOf(World& w, int i, int j) {
+  const size_t n = w.bodies.size();
+  return w.pair_caches.empty() ? nullptr : &w.pair_caches[static_cast<size_t>(i) * n + j];
+}
+
+// Calls visit(i, j, asleep) for every body pair to detect this step, in the pair
+// loop's order (i, then j > i): asleep (its last contacts reused, sleep.cpp) or whose
+// root spheres overlap.
+template <class Visit>
+void ForEachPairToDetect(World& w, Visit&& visit) {
   const int n = static_cast<int>(w.bodies.size());
   for (int i = 0; i < n; ++i) {
     const Body& a = w.bodies[i];
     const CollisionShape sa = a.Shape();
     for (int j = i + 1; j < n; ++j) {
       const Body& b = w.bodies[j];
-      const bool a_moves = a.articulation >= 0, b_moves = b.articulation >= 0;
-      if (!a_moves && !b_moves) continue;
+      if (a.articulation < 0 && b.articulation < 0) continue;
       // two fingertips of one finger, segments of one tracked finger (World::CanTouch)
       if (!w.CanTouch(i, j)) continue;
       ++w.profile.work.body_pairs;
-      // at rest (sleep.cpp): the last step's contacts, moved with the poses
       if (PairAsleep(w, i, j)) {
-        ReuseContacts(w, i, j);
+        visit(i, j, true);
         continue;
       }
-      const CollisionShape sb = b.Shape();
       ++w.profile.work.pair_tests;
-      if (!RootsOverlap(sa, a.pose, sb, b.pose, w.params.collision.contact_threshold)) continue;
+      if (!RootsOverlap(sa, a.pose, b.Shape(), b.pose, w.params.collision.contact_threshold)) continue;
       ++w.profile.work.pairs_traversed;
-      PairCache* cache = w.pair_caches.empty() ? nullptr : &w.pair_caches[static_cast<size_t>(i) * n + j];
-      CollidePair(i, sa, a.pose, j, sb, b.pose, w.params.collision, &w.collision_scratch, &w.contacts,
-                  &w.profile.collision, cache);
+      visit(i, j, false);
     }
   }
+}
+
+// every pair on the calling thread, straight into the world's contacts
+void DetectInOrder(World& w) {
+  ForEachPairToDetect(w, [&](int i, int j, bool asleep) {
+    if (asleep) {
+      ReuseContacts(w, i, j);
+      return;
+    }
+    const Body& a = w.bodies[i];
+    const Body& b = w.bodies[j];
+    CollidePair(i, a.Shape(), a.pose, j, b.Shape(), b.pose, w.params.collision, &w.collision_scratch, &w.contacts,
+                &w.profile.collision, CacheOf(w, i, j));
+  });
+}
+
+// the pairs listed, collided on the runner's threads into their lanes (the larger
+// first: the served leaf-pair list's length as the measure), then gathered in order
+void DetectOnLanes(World& w) {
+  w.pair_tasks.clear();
+  w.task_order.clear();
+  ForEachPairToDetect(w, [&](int i, int j, bool asleep) {
+    if (!asleep) w.task_order.push_back(static_cast<int>(w.pair_tasks.size()));
+    World::PairTask t;
+    t.i = i;
+    t.j = j;
+    t.asleep = asleep;
+    w.pair_tasks.push_back(t);
+  });
+  auto size = [&](int t) {
+    const PairCache* c = CacheOf(w, w.pair_tasks[t].i, w.pair_tasks[t].j);
+    return c ? c->pairs.size() : size_t{0};
+  };
+  std::stable_sort(w.task_order.begin(), w.task_order.end(), [&](int x, int y) { return size(x) > size(y); });
+  for (World::CollisionLane& lane : w.lanes) {
+    lane.contacts.Clear();
+    lane.stats = CollisionStats{};
+  }
+  auto collide = [&w](int k, int thread) {
+    World::PairTask& t = w.pair_tasks[w.task_order[k]];
+    World::CollisionLane& lane = w.lanes[thread];
+    const Body& a = w.bodies[t.i];
+    const Body& b = w.bodies[t.j];
+    t.lane = thread;
+    t.begin = static_cast<int>(lane.contacts.items.size());
+    CollidePair(t.i, a.Shape(), a.pose, t.j, b.Shape(), b.pose, w.params.collision, &lane.scratch, &lane.contacts,
+                &lane.stats, CacheOf(w, t.i, t.j));
+    t.end = static_cast<int>(lane.contacts.items.size());
+  };
+  RunTasks(w.runner(), static_cast<int>(w.task_order.size()), collide);
+  w.profile.work.pairs_on_lanes = static_cast<int>(w.task_order.size());
+  // gathered in the pair loop's order; the contacts kept and dropped are the ones
+  // the world's buffer keeps and drops, as in one thread
+  CollisionStats& total = w.profile.collision;
+  for (const World::CollisionLane& lane : w.lanes) total.Add(lane.stats);
+  int kept = 0, dropped = 0;
+  for (const World::PairTask& t : w.pair_tasks) {
+    if (t.asleep) {
+      ReuseContacts(w, t.i, t.j);
+      continue;
+    }
+    const std::vector<Contact>& items = w.lanes[t.lane].contacts.items;
+    for (int k = t.begin; k < t.end; ++k) (w.contacts.Push(items[k]) ? kept : dropped) += 1;
+  }
+  int lane_contacts = 0;
+  for (const World::CollisionLane& lane : w.lanes) lane_contacts += lane.stats.contacts;
+  total.contacts += kept - lane_contacts;
+  total.dropped += dropped;
+}
+
+}  // namespace
+
+void DetectCollisions(World& w) {
+  using Clock = std::chrono::steady_clock;
+  const auto t0 = Clock::now();
+  RefitTrees(w);
+  const auto t1 = Clock::now();
+  w.profile.refit = std::chrono::duration<double>(t1 - t0).count();
+
+  // on the runner's threads when the last step's pairs took long enough to pay for
+  // waking them (WorldParams::lanes_from_s; the results are the same either way)
+  w.contacts.Clear();
+  if (w.runner() && w.runner()->threads() > 1 && w.lanes.size() >= static_cast<size_t>(w.runner()->threads()) &&
+      w.last_pairs_s_ >= w.params.lanes_from_s)
+    DetectOnLanes(w);
+  else
+    DetectInOrder(w);
+  w.last_pairs_s_ = w.profile.collision.traverse_s + w.profile.collision.project_s;
   w.profile.work.pairs_from_cache = w.profile.collision.cache_hits;
   w.profile.work.node_tests = w.profile.collision.node_pairs;
   w.profile.traverse = w.profile.collision.traverse_s;

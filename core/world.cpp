@@ -186,6 +186,8 @@ void World::Finalize() {
   contacts.Reserve(params.max_contacts);
   rows.reserve(params.max_contacts);
   collision_scratch.Reserve(max_leaves, 16 * params.max_contacts);
+  max_leaves_ = max_leaves;
+  UseRunner(runner_);
   // leaf-pair caches of the pairs of trees (their lists take their capacity the
   // first time the pair is traversed)
   pair_caches.clear();
@@ -232,6 +234,23 @@ void World::Finalize() {
   contacts_prev.reserve(params.max_contacts);
   sleep_set.assign(n, 0);
   sleep_gravity = params.gravity;
+}
+
+void World::UseRunner(TaskRunner* runner) {
+  runner_ = runner;
+  if (!runner || runner->threads() < 2) {
+    lanes.clear();
+    return;
+  }
+  // every lane may have to hold the step's contacts: one pair can give them all
+  lanes.resize(static_cast<size_t>(runner->threads()));
+  for (CollisionLane& lane : lanes) {
+    lane.scratch.Reserve(max_leaves_, 16 * params.max_contacts);
+    lane.contacts.Reserve(params.max_contacts);
+  }
+  const size_t n = bodies.size();
+  pair_tasks.reserve(n * (n - 1) / 2 + 1);
+  task_order.reserve(n * (n - 1) / 2 + 1);
 }
 
 void World::Step() {

@@ -32,6 +32,7 @@
 #include "core/finger.h"
 #include "core/nsgs.h"
 #include "core/sampling.h"
+#include "core/parallel.h"
 #include "core/sphere_tree.h"
 #include "core/types.h"
 
@@ -341,6 +342,11 @@ struct WorldParams {
   /// a joint further than this in one step past a limit it did not see is pushed
   /// back by the next step's row (docs/solver.md, "Joint limits").
   double joint_limit_margin = 0.05;
+  /// With a runner (World::UseRunner), the body pairs of a step are detected on its
+  /// threads when the last step's pairs took at least this long (s, summed over
+  /// threads; CollisionStats traverse_s + project_s): below it waking a sleeping
+  /// worker costs about what it saves. The results are the same either way.
+  double lanes_from_s = 1e-4;
 };
 
 /// Work done by the last step, counted where it is done: what a scene does not
@@ -353,6 +359,7 @@ struct StepWork {
   int pairs_traversed = 0;    ///< body pairs whose trees were traversed (bounding spheres overlap)
   int pairs_from_cache = 0;   ///< of those, pairs of trees served by their leaf-pair cache (no descent)
   int node_tests = 0;         ///< sphere tests of collision detection (descents and cached lists)
+  int pairs_on_lanes = 0;     ///< of pairs_traversed, pairs detected as tasks on the runner's threads (World::UseRunner)
   int w_blocks_built = 0;     ///< diagonal Delassus blocks W_cc computed
   int w_deform_sides = 0;     ///< contact sides whose W_deform term and merged influence were built
   int w_deform_reused = 0;    ///< of those, merged influences copied from the last step (same contact, same weights)
@@ -440,6 +447,11 @@ class World {
 
   /// Sizes every buffer and the articulations; call after adding bodies and fingers.
   void Finalize();
+  /// Lets the step run its independent tasks (the body pairs' collision detection)
+  /// on the runner's threads; null: all on the caller's. Sizes each thread's buffers
+  /// (again at every Finalize). The results are the same, bit for bit, either way.
+  void UseRunner(TaskRunner* runner);
+  TaskRunner* runner() const { return runner_; }
   /// One time step of params.dt.
   void Step();
   /// Wakes every sleeping body (call after changing a body's state by hand:
@@ -459,6 +471,25 @@ class World {
   std::vector<double> friction_;
   std::vector<uint8_t> no_touch_;  ///< 1 for the pairs SetCanTouch excluded, [a * bodies + b]; empty: none
   CollisionScratch collision_scratch;
+  /// a body pair to detect in the step (collision_detection.cpp): asleep (its last
+  /// contacts reused) or collided, as one task whose contacts land in a lane
+  struct PairTask {
+    int i = 0, j = 0;
+    bool asleep = false;
+    int lane = 0, begin = 0, end = 0;  ///< where its contacts are
+  };
+  std::vector<PairTask> pair_tasks;
+  std::vector<int> task_order;  ///< the collided tasks, larger first
+  /// one runner thread's buffers for the pairs it detects
+  struct CollisionLane {
+    CollisionScratch scratch;
+    ContactBuffer contacts;
+    CollisionStats stats;
+  };
+  std::vector<CollisionLane> lanes;
+  TaskRunner* runner_ = nullptr;
+  double last_pairs_s_ = 0.0;  ///< the last step's pair work (CollisionStats traverse_s + project_s, every thread's)
+  int max_leaves_ = 1;  ///< the most leaves of a body's tree (Finalize)
   std::vector<PairCache> pair_caches;  ///< leaf-pair caches of the tree pairs, [i * bodies + j] for i < j
   NsgsScratch gs_scratch;
   std::vector<std::pair<uint64_t, Vec3>> warm_prev, warm_next;  ///< previous step's world forces (key, force)

@@ -115,6 +115,14 @@ void TrackedSim::Ingest(const char* data, size_t size, bool truncated, tracking:
   out->parse_errors = errors;
 }
 
+void TrackedSim::UseThreads(int threads) {
+  world().UseRunner(nullptr);
+  pool_.reset();
+  if (threads < 2) return;
+  pool_ = std::make_unique<WorkerPool>(threads);
+  world().UseRunner(pool_.get());
+}
+
 void TrackedSim::HudText(char* buf, size_t size) const {
   if (size == 0) return;
   const int n = follower_.size();

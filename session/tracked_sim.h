@@ -9,6 +9,7 @@
 #include <string>
 
 #include "scene/scene_file.h"
+#include "session/worker_pool.h"
 #include "tracking/dtrack_parser.h"
 #include "tracking/synthetic_hand.h"
 #include "tracking/target_follower.h"
@@ -59,7 +60,13 @@ class TrackedSim {
   /// middle lost" (no allocation: writes into buf).
   void HudText(char* buf, size_t size) const;
 
+  /// Steps on `threads` threads from now on, the caller's included (1: on the
+  /// caller's alone): a WorkerPool (session/worker_pool.h) started by the calling
+  /// thread, with its scheduling. The results are the same either way.
+  void UseThreads(int threads);
+
  private:
+  std::unique_ptr<WorkerPool> pool_;  // before scene_: the world goes first
   std::unique_ptr<BuiltScene> scene_;
   std::string sizing_note_;
   tracking::DTrackParser parser_;

@@ -1,0 +1,110 @@
+#include "session/worker_pool.h"
+
+#include <pthread.h>
+#include <sched.h>
+#include <unistd.h>
+
+#include <algorithm>
+
+namespace gs::app {
+namespace {
+
+// the creating thread's cores less the one it is pinned to, when it is pinned to
+// exactly one and others exist (else its cores as they are)
+void LeaveTheCreatorsCore(const cpu_set_t& creator) {
+  if (CPU_COUNT(&creator) != 1) return;
+  cpu_set_t others;
+  CPU_ZERO(&others);
+  const long cores = sysconf(_SC_NPROCESSORS_ONLN);
+  for (long c = 0; c < cores && c < CPU_SETSIZE; ++c)
+    if (!CPU_ISSET(c, &creator)) CPU_SET(c, &others);
+  if (CPU_COUNT(&others) > 0) pthread_setaffinity_np(pthread_self(), sizeof others, &others);  // best effort
+}
+
+}  // namespace
+
+int WorkerPool::ThreadsFor(int cap) {
+  const unsigned cores = std::thread::hardware_concurrency();
+  return std::clamp(static_cast<int>(cores), 1, std::max(1, cap));
+}
+
+WorkerPool::WorkerPool(int threads) {
+  cpu_set_t creator;
+  CPU_ZERO(&creator);
+  const bool known = pthread_getaffinity_np(pthread_self(), sizeof creator, &creator) == 0;
+  for (int k = 1; k < threads; ++k)
+    workers_.emplace_back([this, k, creator, known] {
+      if (known) LeaveTheCreatorsCore(creator);
+      Work(k);
+    });
+}
+
+WorkerPool::~WorkerPool() {
+  stop_.store(true);
+  Publish(generation_.load() + 1);
+  for (std::thread& t : workers_) t.join();
+}
+
+void WorkerPool::Publish(uint32_t generation) {
+  {
+    std::lock_guard<std::mutex> lock(wake_mutex_);
+    generation_.store(generation, std::memory_order_release);
+  }
+  wake_.notify_all();
+}
+
+void WorkerPool::Run(int count, void (*fn)(void*, int, int), void* ctx) {
+  std::unique_lock<std::mutex> lock(busy_, std::try_to_lock);
+  if (!lock.owns_lock() || workers_.empty()) {
+    for (int t = 0; t < count; ++t) fn(ctx, t, 0);
+    return;
+  }
+  count_ = count;
+  fn_ = fn;
+  ctx_ = ctx;
+  next_.store(0, std::memory_order_relaxed);
+  const uint32_t g = generation_.load(std::memory_order_relaxed) + 1;
+  state_.store((uint64_t{g} << 32) | kOpen, std::memory_order_release);
+  Publish(g);
+  Drain(0);
+  // every task is taken: no worker joins any more; wait for those in it to finish theirs
+  uint64_t s = state_.fetch_and(~kOpen, std::memory_order_acq_rel) & ~kOpen;
+  while ((s & kJoinedMask) != 0) {
+    std::this_thread::yield();
+    s = state_.load(std::memory_order_acquire);
+  }
+}
+
+// a worker enters the job of `generation` while it still takes workers
+bool WorkerPool::Join(uint32_t generation) {
+  uint64_t s = state_.load(std::memory_order_acquire);
+  while ((s >> 32) == generation && (s & kOpen)) {
+    if (state_.compare_exchange_weak(s, s + 1, std::memory_order_acq_rel)) return true;
+  }
+  return false;
+}
+
+void WorkerPool::Drain(int thread) {
+  for (;;) {
+    const int t = next_.fetch_add(1, std::memory_order_acq_rel);
+    if (t >= count_) return;
+    fn_(ctx_, t, thread);
+  }
+}
+
+void WorkerPool::Work(int thread) {
+  uint32_t seen = 0;
+  for (;;) {
+    {
+      std::unique_lock<std::mutex> lock(wake_mutex_);
+      wake_.wait(lock, [&] { return generation_.load(std::memory_order_acquire) != seen; });
+      seen = generation_.load(std::memory_order_acquire);
+    }
+    if (stop_.load()) return;
+    if (!Join(seen)) continue;
+    Drain(thread);
+    state_.fetch_sub(1, std::memory_order_acq_rel);
+  }
+}
+
+}  // namespace gs::app

@@ -1,0 +1,60 @@
+// A pool of threads that runs a step's tasks (core/parallel.h) next to the thread
+// that steps the world: World::UseRunner(&pool). The calling thread takes tasks too;
+// a worker asleep when the tasks come wakes and joins in late, never
+// holding up the step: the tasks are taken one at a time, in index order, by
+// whoever is free. While the pool runs one caller's tasks another caller (a second
+// world stepping on another thread) runs its own on its own thread.
+//
+// Workers inherit the creating thread's scheduling (SCHED_FIFO in a real-time loop)
+// but not its core: a creator pinned to one core puts them on the others.
+#pragma once
+
+#include <atomic>
+#include <condition_variable>
+#include <cstdint>
+#include <mutex>
+#include <thread>
+#include <vector>
+
+#include "core/parallel.h"
+
+namespace gs::app {
+
+class WorkerPool final : public TaskRunner {
+ public:
+  /// `threads` in all, the caller's included: threads - 1 workers (none below 2)
+  explicit WorkerPool(int threads);
+  ~WorkerPool() override;
+  WorkerPool(const WorkerPool&) = delete;
+  WorkerPool& operator=(const WorkerPool&) = delete;
+
+  int threads() const override { return static_cast<int>(workers_.size()) + 1; }
+  void Run(int count, void (*fn)(void* ctx, int task, int thread), void* ctx) override;
+
+  /// the threads a machine's cores give (at least 1, at most `cap`)
+  static int ThreadsFor(int cap);
+
+ private:
+  // state_: the job's generation (high 32 bits), whether it takes workers (bit 31)
+  // and how many workers are in it (low 31 bits)
+  static constexpr uint64_t kOpen = uint64_t{1} << 31;
+  static constexpr uint64_t kJoinedMask = kOpen - 1;
+  void Work(int thread);
+  void Publish(uint32_t generation);
+  bool Join(uint32_t generation);
+  void Drain(int thread);
+
+  std::vector<std::thread> workers_;
+  std::mutex busy_;                    // one caller's tasks at a time
+  std::mutex wake_mutex_;              // guards generation_'s changes, for wake_
+  std::condition_variable wake_;       // workers sleep on it until generation_ changes
+  std::atomic<uint32_t> generation_{0};
+  std::atomic<uint64_t> state_{0};
+  std::atomic<int> next_{0};           // the next task to take
+  int count_ = 0;
+  void (*fn_)(void*, int, int) = nullptr;
+  void* ctx_ = nullptr;
+  std::atomic<bool> stop_{false};
+};
+
+}  // namespace gs::app
