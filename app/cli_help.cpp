@@ -174,6 +174,13 @@ CLI::Validator InRange(double lo, double hi, const std::string& what) {
       "RANGE");
 }
 
+void AddThreadsOption(CLI::App* cmd, int* threads) {
+  cmd->add_option("--threads", *threads,
+                  "threads for the step's collision detection, this one's included (default: 2 where the machine has "
+                  "2 cores or more; 1: one thread); the results are the same")
+      ->check(IntInRange(1, 64, "a thread count"));
+}
+
 CLI::Validator IntInRange(long long lo, long long hi, const std::string& what) {
   return Make(
       [lo, hi, what](std::string& s) {

@@ -43,6 +43,11 @@ CLI::Validator NonNegativeInt(const std::string& what);
 CLI::Validator InRange(double lo, double hi, const std::string& what);
 /// A whole number in [lo, hi]: "70000 is not a UDP port from 0 to 65535" for what = "a UDP port".
 CLI::Validator IntInRange(long long lo, long long hi, const std::string& what);
+/// `--threads N` on cmd: the threads a step's collision detection may use, the
+/// stepping one's included (WorldParams::lanes_from_s says when they are used; the
+/// results are the same bit for bit). *threads keeps 0 when not given
+/// (WorkerPool::ThreadsFor gives the default).
+void AddThreadsOption(CLI::App* cmd, int* threads);
 /// One of the given words: "'fast' is not a sweep order: one of forward, alternating".
 CLI::Validator OneOf(std::vector<std::string> names, const std::string& what);
 

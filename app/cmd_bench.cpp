@@ -44,6 +44,7 @@ void AddBenchCommand(CLI::App& app, int* exit_code) {
   step->add_flag("--pinch", opt->pinch,
                  "a tracked hand's synthetic input is the precision pinch (config/tracked_whole_hand.yaml) instead of "
                  "the power grasp");
+  AddThreadsOption(step, &opt->threads);
   SetHelpFooter(step,
                 {{"graspsim bench step --quick", "step and stage medians on config/paper_box_grasp.yaml"},
                  {"graspsim bench step --scene config/whole_hand_power_grasp.yaml",
@@ -106,6 +107,7 @@ void AddBenchCommand(CLI::App& app, int* exit_code) {
                            "deadlines with 640x480 rendering at 30 fps and without: missed deadlines (target none), "
                            "step median (target 1 ms)",
                            RunBenchRealtime);
+  AddThreadsOption(realtime, &opt->threads);
   realtime->add_option("--seconds", opt->seconds, "session length in seconds (default 60; --quick: 2)")
       ->type_name("SECONDS")
       ->check(InRange(0.1, 3600.0, "a number of seconds"));

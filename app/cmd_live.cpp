@@ -39,6 +39,7 @@ struct LiveCmd {
   double step_budget = 0.8;  ///< a step has this fraction of the timestep, ending at most as far into its slot (0: no limit)
   int lead_steps = 1;        ///< a step may begin this many timesteps before its slot
   bool skip_late_solves = false;
+  int threads = 0;  ///< --threads (0: WorkerPool::ThreadsFor's default)
 };
 
 // live's input: the scene's tracker section, overridden by the command line
@@ -163,6 +164,7 @@ int Live(const LiveCmd& c) {
   o.step_budget = c.step_budget;
   o.lead_steps = c.lead_steps;
   o.skip_late_solves = c.skip_late_solves;
+  o.threads = WorkerPool::ThreadsFor(c.threads);
   const World& w = sim->world();
   char lcm[300];
   if (o.publish_rate > 0)
@@ -312,6 +314,7 @@ void AddLiveCommand(CLI::App& app, int* exit_code) {
           "", ""))
       ->capture_default_str();
   cmd->add_flag("--quiet", c->quiet, "no status line");
+  AddThreadsOption(cmd, &c->threads);
   cmd->add_option("--rt-priority", c->rt_priority,
                   "SCHED_FIFO priority of the simulation thread, 0 for normal scheduling (needs CAP_SYS_NICE; a "
                   "refusal is said and live goes on)")

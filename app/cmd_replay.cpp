@@ -35,6 +35,7 @@ struct ReplayOptions {
   bool json = false;  ///< stdout: summary.json's object as one line, nothing else
   RenderOptions render;  ///< --frames, --video, ... (docs/render.md): frames at fixed simulated times
   std::string view;      ///< --view [ADDR:]PORT: the live view (view/live_view.h)
+  int threads = 0;       ///< --threads (0: WorkerPool::ThreadsFor's default)
 };
 
 void Row(std::ostream& o, double v) {
@@ -135,6 +136,7 @@ int Replay(const ReplayOptions& opt) {
     return kExitBadInput;
   }
   if (!sim->sizing_note().empty() && !opt.json) std::printf("replay: %s\n", sim->sizing_note().c_str());
+  sim->UseThreads(WorkerPool::ThreadsFor(opt.threads));
   World& w = sim->world();
   const double dt = w.params.dt;
   auto arrival = [&](const tracking::RecordedDatagram& d) {
@@ -347,6 +349,7 @@ void AddReplayCommand(CLI::App& app, int* exit_code) {
       ->type_name("SECONDS")
       ->check(InRange(0.0, 1e6, "a number of seconds"));
   cmd->add_flag("--quiet", opt->quiet, "no progress bar or progress lines");
+  AddThreadsOption(cmd, &opt->threads);
   cmd->add_flag("--json", opt->json, "print only the replay's summary as one JSON object (the summary.json of --out)");
   AddRenderOptions(cmd, &opt->render);
   cmd->add_option("--view", opt->view, "serve the live view (a page drawing the grasp in a browser) on this port, "

@@ -13,6 +13,7 @@
 #include "session/console.h"
 #include "session/frame_recorder.h"
 #include "session/run_report.h"
+#include "session/worker_pool.h"
 #include "scene/scene_file.h"
 
 namespace gs::app {
@@ -28,6 +29,7 @@ struct RunOptions {
   std::string export_fclib;  ///< folder for every step's contact problem (FCLIB)
   int export_every = 1;
   RenderOptions render;  ///< --frames, --video, --size, --fps (docs/render.md)
+  int threads = 0;       ///< --threads (0: WorkerPool::ThreadsFor's default)
 };
 
 // writes the last step's contact problem as DIR/step_NNNNNN.hdf5 (with its solution)
@@ -112,6 +114,9 @@ int Run(const RunOptions& opt) {
   if (!built->sizes_note.empty()) std::fprintf(stderr, "%s\n", built->sizes_note.c_str());
   if (StopRequested()) return kExitInterrupted;
   World& w = built->world;
+  const int threads = WorkerPool::ThreadsFor(opt.threads);
+  std::unique_ptr<WorkerPool> pool = threads > 1 ? std::make_unique<WorkerPool>(threads) : nullptr;
+  w.UseRunner(pool.get());
   const double build_s = std::chrono::duration<double>(Clock::now() - t0).count();
   const double duration = opt.duration > 0 ? opt.duration : built->duration;
   const int64_t steps = static_cast<int64_t>(std::llround(duration / w.params.dt));
@@ -230,6 +235,7 @@ void AddRunCommand(CLI::App& app, int* exit_code) {
       ->type_name("N")
       ->check(PositiveInt("number of steps"));
   run->add_flag("--quiet", opt->quiet, "no progress lines");
+  AddThreadsOption(run, &opt->threads);
   run->add_flag("--json", opt->json, "print only the run's summary as one JSON object (the summary.json of --out)");
   AddRenderOptions(run, &opt->render);
   SetHelpFooter(run,

@@ -28,6 +28,7 @@ struct BenchOptions {
   double step_budget = 0.8;  ///< bench realtime: a step ends this fraction of the timestep into its slot, the solver stopping early (0: no limit)
   std::string view;          ///< bench realtime: serve the live view during the rendering run on [ADDR:]PORT
   std::string steps_csv;     ///< bench realtime: write every step's stage times of the rendering run here when set
+  int threads = 0;           ///< bench step, realtime: --threads (0: WorkerPool::ThreadsFor's default)
 };
 
 int RunBenchCollision(const BenchOptions& opt);

@@ -131,6 +131,7 @@ struct StepTrace {
 
 struct RunResult {
   bool render = false;
+  int threads = 1;              ///< the step's threads (TrackedSim::UseThreads)
   int64_t view_requests = -1;   ///< --view: requests the live view served during the run (-1: no view)
   double dt = 0.0;
   int64_t steps = 0;
@@ -164,7 +165,7 @@ struct RunResult {
 };
 
 bool RunOnce(const std::string& scene, const Session& session, double seconds, bool render, const PacingOptions& po,
-             int lead, double step_budget, bool skip_late_solves, bool trace, const std::string& view_address,
+             int threads, int lead, double step_budget, bool skip_late_solves, bool trace, const std::string& view_address,
              RunResult* out, std::string* error) {
   auto sim = std::make_unique<TrackedSim>();
   if (!sim->Load(scene, error, SyntheticSizing())) return false;
@@ -199,6 +200,8 @@ bool RunOnce(const std::string& scene, const Session& session, double seconds, b
   out->dt = dt;
   // after the render thread started, so that it keeps normal scheduling
   const PacingGrant grant = EnterRealtime(po);
+  sim->UseThreads(threads);  // after the loop's scheduling: the workers take it, on the other cores
+  out->threads = threads;
   out->pacing = grant.Describe();
   out->refused = grant.refused;
   StepSchedule schedule;
@@ -384,7 +387,7 @@ bool WriteTrace(FILE* f, const std::string& path, const RunResult& with, const R
 }
 
 void PrintJson(const RunResult& r, double seconds) {
-  std::printf("{\"bench\":\"realtime\",\"rendering\":%s,\"seconds\":%g,\"steps\":%lld,\"missed_deadlines\":%lld,"
+  std::printf("{\"bench\":\"realtime\",\"rendering\":%s,\"threads\":%d,\"seconds\":%g,\"steps\":%lld,\"missed_deadlines\":%lld,"
               "\"late_runs\":%lld,\"overlong_steps\":%lld,\"missed_own_work\":%lld,\"missed_woke_late\":%lld,"
               "\"missed_carried\":%lld,"
               "\"worst_lateness_ms\":%.4f,\"step_ms_median\":%.4f,\"step_ms_p99\":%.4f,\"step_ms_max\":%.4f,"
@@ -393,7 +396,7 @@ void PrintJson(const RunResult& r, double seconds) {
               "\"skipped_solves\":%lld,\"residual_max\":%.3g,\"lifts\":%d,\"datagrams\":%zu,"
               "\"wake_ms_p99\":%.4f,\"wake_ms_max\":%.4f,\"pacing\":\"%s\",\"pacing_refused\":\"%s\","
               "\"load_average_start\":%.2f,\"load_average_end\":%.2f,\"steal_ms\":%.0f}\n",
-              r.render ? "true" : "false", seconds, static_cast<long long>(r.steps), static_cast<long long>(r.missed),
+              r.render ? "true" : "false", r.threads, seconds, static_cast<long long>(r.steps), static_cast<long long>(r.missed),
               static_cast<long long>(r.late_runs), static_cast<long long>(r.overlong), static_cast<long long>(r.missed_own),
               static_cast<long long>(r.missed_woke_late), static_cast<long long>(r.missed_carried), r.worst_late_ms,
               r.step_median_ms, r.step_p99_ms, r.step_max_ms, r.loop_median_ms, r.loop_p99_ms,
@@ -436,9 +439,10 @@ int RunBenchRealtime(const BenchOptions& opt) {
                  std::strerror(errno));
     return 3;
   }
-  if (!RunOnce(scene, session, seconds, true, po, opt.lead_steps, opt.step_budget, opt.skip_late_solves, trace,
+  const int threads = WorkerPool::ThreadsFor(opt.threads);
+  if (!RunOnce(scene, session, seconds, true, po, threads, opt.lead_steps, opt.step_budget, opt.skip_late_solves, trace,
                opt.view, &with, &error) ||
-      !RunOnce(scene, session, seconds, false, po, opt.lead_steps, opt.step_budget, opt.skip_late_solves, trace, "",
+      !RunOnce(scene, session, seconds, false, po, threads, opt.lead_steps, opt.step_budget, opt.skip_late_solves, trace, "",
                &without, &error) ||
       (trace && !WriteTrace(std::exchange(trace_file, nullptr), opt.steps_csv, with, without, &error))) {
     if (trace_file) {  // a run failed: the trace is not written

@@ -269,6 +269,7 @@ bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::str
   std::thread sim_thread([&] {
     // this thread alone: the receiver and render threads keep normal scheduling
     stats->pacing = EnterRealtime(opt.pacing, &locked);
+    sim.UseThreads(opt.threads);
     tracking::TargetSample s;
     char tracker_text[160] = "";
     int64_t k = 0;  // step index on the schedule
@@ -341,6 +342,7 @@ bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::str
     const int64_t next = schedule.ReleaseNs(k);
     if (exit_ns - next >= period_ns) skipped.fetch_add((exit_ns - next) / period_ns, std::memory_order_relaxed);
     sim_end_ns.store(exit_ns);
+    sim.UseThreads(1);  // the workers end with the thread that started them
   });
 
   // this thread: LCM publishing and the status line

@@ -47,6 +47,9 @@ struct LiveOptions {
   /// arrival; the simulated time runs up to this many timesteps ahead of the clock.
   int lead_steps = 1;
   bool skip_late_solves = false;  ///< WorldParams::budget_may_skip_solve while live runs
+  /// threads the simulation steps on, its own included (TrackedSim::UseThreads),
+  /// started by the simulation thread once it has its scheduling: on the other cores
+  int threads = 1;
 };
 
 struct LiveStats {

@@ -23,16 +23,18 @@ void LeaveTheCreatorsCore(const cpu_set_t& creator) {
 
 }  // namespace
 
-int WorkerPool::ThreadsFor(int cap) {
-  const unsigned cores = std::thread::hardware_concurrency();
-  return std::clamp(static_cast<int>(cores), 1, std::max(1, cap));
+int WorkerPool::ThreadsFor(int given) {
+  if (given > 0) return given;
+  return std::thread::hardware_concurrency() >= 2 ? 2 : 1;
 }
 
-WorkerPool::WorkerPool(int threads) {
+// the workers, from the thread that first runs tasks on them
+void WorkerPool::Start() {
   cpu_set_t creator;
   CPU_ZERO(&creator);
   const bool known = pthread_getaffinity_np(pthread_self(), sizeof creator, &creator) == 0;
-  for (int k = 1; k < threads; ++k)
+  workers_.reserve(static_cast<size_t>(threads_ - 1));
+  for (int k = 1; k < threads_; ++k)
     workers_.emplace_back([this, k, creator, known] {
       if (known) LeaveTheCreatorsCore(creator);
       Work(k);
@@ -55,6 +57,7 @@ void WorkerPool::Publish(uint32_t generation) {
 
 void WorkerPool::Run(int count, void (*fn)(void*, int, int), void* ctx) {
   std::unique_lock<std::mutex> lock(busy_, std::try_to_lock);
+  if (lock.owns_lock() && workers_.empty() && threads_ > 1 && count > 1) Start();
   if (!lock.owns_lock() || workers_.empty()) {
     for (int t = 0; t < count; ++t) fn(ctx, t, 0);
     return;

@@ -5,10 +5,13 @@
 // whoever is free. While the pool runs one caller's tasks another caller (a second
 // world stepping on another thread) runs its own on its own thread.
 //
-// Workers inherit the creating thread's scheduling (SCHED_FIFO in a real-time loop)
-// but not its core: a creator pinned to one core puts them on the others.
+// The workers start with the first tasks that need them (a scene whose steps stay
+// light never starts one) and inherit the scheduling of the thread that brought
+// them in (SCHED_FIFO in a real-time loop) but not its core: a thread pinned to one
+// core puts them on the others.
 #pragma once
 
+#include <algorithm>
 #include <atomic>
 #include <condition_variable>
 #include <cstdint>
@@ -23,27 +26,31 @@ namespace gs::app {
 class WorkerPool final : public TaskRunner {
  public:
   /// `threads` in all, the caller's included: threads - 1 workers (none below 2)
-  explicit WorkerPool(int threads);
+  explicit WorkerPool(int threads) : threads_(std::max(1, threads)) {}
   ~WorkerPool() override;
   WorkerPool(const WorkerPool&) = delete;
   WorkerPool& operator=(const WorkerPool&) = delete;
 
-  int threads() const override { return static_cast<int>(workers_.size()) + 1; }
+  int threads() const override { return threads_; }
+  /// the workers started so far (0 until a Run needed them)
+  int started() const { return static_cast<int>(workers_.size()); }
   void Run(int count, void (*fn)(void* ctx, int task, int thread), void* ctx) override;
 
-  /// the threads a machine's cores give (at least 1, at most `cap`)
-  static int ThreadsFor(int cap);
+  /// the threads asked for (`given` > 0), or else 2 on a machine of 2 cores or more, 1 on one
+  static int ThreadsFor(int given);
 
  private:
   // state_: the job's generation (high 32 bits), whether it takes workers (bit 31)
   // and how many workers are in it (low 31 bits)
   static constexpr uint64_t kOpen = uint64_t{1} << 31;
   static constexpr uint64_t kJoinedMask = kOpen - 1;
+  void Start();
   void Work(int thread);
   void Publish(uint32_t generation);
   bool Join(uint32_t generation);
   void Drain(int thread);
 
+  int threads_ = 1;
   std::vector<std::thread> workers_;
   std::mutex busy_;                    // one caller's tasks at a time
   std::mutex wake_mutex_;              // guards generation_'s changes, for wake_

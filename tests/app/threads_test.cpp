@@ -90,12 +90,17 @@ Watched RunWatched(std::vector<std::string> args) {
   return w;
 }
 
+// the paper grasp's first 0.2 s (the fingers on their way: light steps, WorldParams::
+// lanes_from_s) starts no collision worker either; `--threads 1` never does
 TEST(Threads, RunWithoutOutputOrTrackerIsOneThread) {
   const std::string out = std::string(::testing::TempDir()) + "/threads_run";
-  const Watched w = RunWatched({"run", "--duration", "0.3", "--quiet", "--out", out});
+  const Watched w = RunWatched({"run", "--duration", "0.2", "--quiet", "--out", out});
   EXPECT_EQ(w.exit_code, 0);
   EXPECT_GT(w.samples, 20);
   EXPECT_EQ(w.max_threads, 1);
+  const Watched one = RunWatched({"run", "--duration", "0.4", "--threads", "1", "--quiet", "--out", out});
+  EXPECT_EQ(one.exit_code, 0);
+  EXPECT_EQ(one.max_threads, 1);
 }
 
 TEST(Threads, RunWithFramesHasARenderThread) {
