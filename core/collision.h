@@ -82,8 +82,10 @@ struct CollisionParams {
   /// Leaf-pair cache (PairCache): the margin, as a fraction of the two trees' mean
   /// leaf radii, by which the cached traversal reaches beyond the contact threshold.
   /// The cache serves the following steps while the trees' relative motion plus
-  /// their radius growth stays within it. 0: every step traverses the trees.
-  double pair_cache_margin = 0.25;
+  /// their radius growth stays within it (then refilled from the wide list). 0: every
+  /// step traverses the trees. A wider margin tests more pairs every step: at 0.25
+  /// the held whole hand at the paper's densities tested 32,775 for 19,825 overlapping.
+  double pair_cache_margin = 0.1;
   /// The cache's wide list: the leaf pairs within this margin (the same fraction,
   /// larger than pair_cache_margin) beyond the threshold. When the served list's
   /// margin is used up, the list is refilled by testing the wide list's pairs
