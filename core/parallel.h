@@ -16,6 +16,9 @@ class TaskRunner {
   /// threads (thread in [0, threads()); the caller's is 0), and returns when all have
   /// returned. Tasks are taken in index order. Allocates nothing.
   virtual void Run(int count, void (*fn)(void* ctx, int task, int thread), void* ctx) = 0;
+  /// Tasks will come within a fraction of a millisecond: a runner whose threads sleep
+  /// may wake them now, so that they are ready when Run comes (a hint; may do nothing).
+  virtual void Expect() {}
 };
 
 /// body(task, thread) for every task in [0, count): on the runner's threads, or here

@@ -259,6 +259,9 @@ void World::Step() {
   const auto t0 = Clock::now();
   step_started_ = t0;
   profile = StepProfile{};
+  // the pairs will go to the runner's threads (collision_detection.cpp): wake them now,
+  // while free motion runs
+  if (runner_ && !lanes.empty() && last_pairs_s_ >= params.lanes_from_s) runner_->Expect();
   FreeMotion(*this);
   const auto t1 = Clock::now();
   WakeSleepingBodies(*this);

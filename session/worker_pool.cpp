@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <chrono>
 
 namespace gs::app {
 namespace {
@@ -45,6 +46,16 @@ WorkerPool::~WorkerPool() {
   stop_.store(true);
   Publish(generation_.load() + 1);
   for (std::thread& t : workers_) t.join();
+}
+
+void WorkerPool::Expect() {
+  std::unique_lock<std::mutex> lock(busy_, std::try_to_lock);
+  if (!lock.owns_lock() || workers_.empty()) return;
+  {
+    std::lock_guard<std::mutex> wake(wake_mutex_);
+    expected_.fetch_add(1, std::memory_order_relaxed);
+  }
+  wake_.notify_all();
 }
 
 void WorkerPool::Publish(uint32_t generation) {
@@ -96,14 +107,24 @@ void WorkerPool::Drain(int thread) {
 }
 
 void WorkerPool::Work(int thread) {
-  uint32_t seen = 0;
+  uint32_t seen = 0, expected = 0;
   for (;;) {
     {
       std::unique_lock<std::mutex> lock(wake_mutex_);
-      wake_.wait(lock, [&] { return generation_.load(std::memory_order_acquire) != seen; });
-      seen = generation_.load(std::memory_order_acquire);
+      wake_.wait(lock, [&] {
+        return generation_.load(std::memory_order_acquire) != seen || expected_.load(std::memory_order_relaxed) != expected;
+      });
+      expected = expected_.load(std::memory_order_relaxed);
+    }
+    // woken ahead of the tasks (Expect): awake until they come, for a while
+    const auto until = std::chrono::steady_clock::now() + kExpectSpin;
+    while (generation_.load(std::memory_order_acquire) == seen && !stop_.load(std::memory_order_relaxed) &&
+           std::chrono::steady_clock::now() < until) {
     }
     if (stop_.load()) return;
+    const uint32_t g = generation_.load(std::memory_order_acquire);
+    if (g == seen) continue;  // nothing came: asleep again
+    seen = g;
     if (!Join(seen)) continue;
     Drain(thread);
     state_.fetch_sub(1, std::memory_order_acq_rel);

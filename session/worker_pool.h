@@ -13,6 +13,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <condition_variable>
 #include <cstdint>
 #include <mutex>
@@ -35,6 +36,9 @@ class WorkerPool final : public TaskRunner {
   /// the workers started so far (0 until a Run needed them)
   int started() const { return static_cast<int>(workers_.size()); }
   void Run(int count, void (*fn)(void* ctx, int task, int thread), void* ctx) override;
+  /// Wakes the started workers to wait for the coming tasks awake, spinning for at
+  /// most kExpectSpin before they sleep again: the tasks then do not wait for a wake-up.
+  void Expect() override;
 
   /// the threads asked for (`given` > 0), or else 2 on a machine of 2 cores or more, 1 on one
   static int ThreadsFor(int given);
@@ -43,6 +47,7 @@ class WorkerPool final : public TaskRunner {
   // state_: the job's generation (high 32 bits), whether it takes workers (bit 31)
   // and how many workers are in it (low 31 bits)
   static constexpr uint64_t kOpen = uint64_t{1} << 31;
+  static constexpr std::chrono::microseconds kExpectSpin{300};
   static constexpr uint64_t kJoinedMask = kOpen - 1;
   void Start();
   void Work(int thread);
@@ -56,6 +61,7 @@ class WorkerPool final : public TaskRunner {
   std::mutex wake_mutex_;              // guards generation_'s changes, for wake_
   std::condition_variable wake_;       // workers sleep on it until generation_ changes
   std::atomic<uint32_t> generation_{0};
+  std::atomic<uint32_t> expected_{0};  // bumped by Expect
   std::atomic<uint64_t> state_{0};
   std::atomic<int> next_{0};           // the next task to take
   int count_ = 0;
