@@ -91,7 +91,10 @@ void DetectOnLanes(World& w) {
     const PairCache* c = CacheOf(w, w.pair_tasks[t].i, w.pair_tasks[t].j);
     return c ? c->pairs.size() : size_t{0};
   };
-  std::stable_sort(w.task_order.begin(), w.task_order.end(), [&](int x, int y) { return size(x) > size(y); });
+  // (std::sort with the index breaking ties: the same order every time, and unlike
+  // std::stable_sort no scratch buffer)
+  std::sort(w.task_order.begin(), w.task_order.end(),
+            [&](int x, int y) { return size(x) != size(y) ? size(x) > size(y) : x < y; });
   for (World::CollisionLane& lane : w.lanes) {
     lane.contacts.Clear();
     lane.stats = CollisionStats{};

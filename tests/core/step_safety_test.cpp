@@ -105,6 +105,30 @@ TEST(StepSafety, SteadyStateStepDoesNotAllocate) {
   ExpectSteadyStepsAllocateNothing(w, 10, 200);
 }
 
+// runs the tasks in order, on lanes 0 and 1 in turn, and counts the calls
+class AlternatingRunner final : public TaskRunner {
+ public:
+  int threads() const override { return 2; }
+  void Run(int count, void (*fn)(void*, int, int), void* ctx) override {
+    ++runs;
+    for (int t = 0; t < count; ++t) fn(ctx, t, t % 2);
+  }
+  int runs = 0;
+};
+
+// the body pairs on a runner's lanes (World::UseRunner): listing, ordering and
+// gathering them allocates nothing either
+TEST(StepSafety, SteadyStateStepOnARunnersLanesDoesNotAllocate) {
+  World w;
+  BuildScene(w);
+  AlternatingRunner runner;
+  w.params.lanes_from_s = 0.0;
+  w.UseRunner(&runner);
+  ExpectSteadyStepsAllocateNothing(w, 10, 200);
+  EXPECT_GT(runner.runs, 300);  // the counted steps and most of the warm-up on the lanes
+  EXPECT_GE(w.profile.work.pairs_on_lanes, 2);
+}
+
 // a whole hand's finger: three soft balls carried by its links, each pulled 2 cm
 // down by its drive (a tracked phalanx's coupling), the distal one pressed on the plane
 void BuildSegmentFinger(World& w) {
