@@ -2,7 +2,7 @@
 // body pairs detected in any order, on any thread, give the contacts and the motion
 // of the step detecting them one after the other in one thread, bit for bit. core
 // starts no threads, so the runner here runs the tasks in an order of its own on
-// three lanes; session/worker_pool_test.cpp runs a world on real threads.
+// three lanes (tests/core/task_runners.h); tests/tracking/worker_pool_test.cpp runs a world on real threads.
 #include <gtest/gtest.h>
 
 #include <cstring>
@@ -11,20 +11,10 @@
 #include "core/parallel.h"
 #include "core/world.h"
 #include "soft_bodies.h"
+#include "task_runners.h"
 
 namespace gs {
 namespace {
-
-// runs the tasks last to first, task k on lane k % 3, and counts the calls
-class ReversedRunner final : public TaskRunner {
- public:
-  int threads() const override { return 3; }
-  void Run(int count, void (*fn)(void*, int, int), void* ctx) override {
-    ++runs;
-    for (int t = count - 1; t >= 0; --t) fn(ctx, t, t % 3);
-  }
-  int runs = 0;
-};
 
 // four soft balls dropped in a heap on the soft slab: ball-slab and ball-ball pairs
 void Heap(World& w) {
@@ -38,7 +28,7 @@ TEST(Parallel, PairsDetectedOutOfOrderOnLanesGiveTheSameStepBitForBit) {
   World alone, shared;
   Heap(alone);
   Heap(shared);
-  ReversedRunner runner;
+  test::ScriptedRunner runner(3, true);  // last to first, on three lanes
   shared.params.lanes_from_s = 0.0;  // every step on the lanes
   shared.UseRunner(&runner);
   ASSERT_EQ(shared.lanes.size(), 3u);
@@ -78,7 +68,7 @@ TEST(Parallel, PairsDetectedOutOfOrderOnLanesGiveTheSameStepBitForBit) {
 TEST(Parallel, LightStepsStayOnTheCallingThread) {
   World w;
   Heap(w);
-  ReversedRunner runner;
+  test::ScriptedRunner runner(3, true);  // last to first, on three lanes
   w.params.lanes_from_s = 1e9;
   w.UseRunner(&runner);
   for (int k = 0; k < 20; ++k) {

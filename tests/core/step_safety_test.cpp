@@ -15,6 +15,7 @@
 #include "core/local_solver.h"
 #include "core/world.h"
 #include "soft_bodies.h"
+#include "task_runners.h"
 
 namespace {
 std::atomic<long> g_allocations{0};
@@ -105,23 +106,12 @@ TEST(StepSafety, SteadyStateStepDoesNotAllocate) {
   ExpectSteadyStepsAllocateNothing(w, 10, 200);
 }
 
-// runs the tasks in order, on lanes 0 and 1 in turn, and counts the calls
-class AlternatingRunner final : public TaskRunner {
- public:
-  int threads() const override { return 2; }
-  void Run(int count, void (*fn)(void*, int, int), void* ctx) override {
-    ++runs;
-    for (int t = 0; t < count; ++t) fn(ctx, t, t % 2);
-  }
-  int runs = 0;
-};
-
 // the body pairs on a runner's lanes (World::UseRunner): listing, ordering and
 // gathering them allocates nothing either
 TEST(StepSafety, SteadyStateStepOnARunnersLanesDoesNotAllocate) {
   World w;
   BuildScene(w);
-  AlternatingRunner runner;
+  test::ScriptedRunner runner(2, false);
   w.params.lanes_from_s = 0.0;
   w.UseRunner(&runner);
   ExpectSteadyStepsAllocateNothing(w, 10, 200);
