@@ -4,7 +4,8 @@
 //   FreeMotion          free_motion.cpp         external forces, motors, drives,
 //                                               relaxation of deformation
 //   DetectCollisions    collision_detection.cpp refit, sphere-tree traversal,
-//                                               MLS interpenetration
+//                                               MLS interpenetration (the body pairs
+//                                               on a runner's threads: UseRunner)
 //   BuildContactSpace   contact_space.cpp       frames, free gaps, Jacobians,
 //                                               diagonal Delassus blocks, warm start
 //     BuildJointLimitRows joint_limits.cpp      a finger joint near its limit: a
