@@ -150,6 +150,7 @@ void DetectCollisions(World& w) {
     DetectInOrder(w);
   // a running mean over about ten steps: a lone heavy step (a cache built) moves no pairs onto the lanes
   w.last_pairs_s_ += 0.1 * (w.profile.collision.traverse_s + w.profile.collision.project_s - w.last_pairs_s_);
+  w.last_pairs_traversed_ = w.profile.work.pairs_traversed;
   w.profile.work.pairs_from_cache = w.profile.collision.cache_hits;
   w.profile.work.node_tests = w.profile.collision.node_pairs;
   w.profile.traverse = w.profile.collision.traverse_s;

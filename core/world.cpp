@@ -261,7 +261,8 @@ void World::Step() {
   profile = StepProfile{};
   // the pairs will go to the runner's threads (collision_detection.cpp): wake them now,
   // while free motion runs
-  if (runner_ && !lanes.empty() && last_pairs_s_ >= params.lanes_from_s) runner_->Expect();
+  if (runner_ && !lanes.empty() && last_pairs_s_ >= params.lanes_from_s && last_pairs_traversed_ >= 2)
+    runner_->Expect();
   FreeMotion(*this);
   const auto t1 = Clock::now();
   WakeSleepingBodies(*this);

@@ -491,6 +491,7 @@ class World {
   };
   std::vector<CollisionLane> lanes;
   TaskRunner* runner_ = nullptr;
+  int last_pairs_traversed_ = 0;  ///< the last step's StepWork::pairs_traversed (one pair: no task for a worker)
   double last_pairs_s_ = 0.0;  ///< the steps' pair work (CollisionStats traverse_s + project_s, every thread's), a running mean over ~10 steps
   int max_leaves_ = 1;  ///< the most leaves of a body's tree (Finalize)
   std::vector<PairCache> pair_caches;  ///< leaf-pair caches of the tree pairs, [i * bodies + j] for i < j
