@@ -688,18 +688,21 @@ bool Remembered(const PairCache::FarMark& m, const Vec3& x, int ls, double thr) 
   return spare > 0.0 && (x - m.x).squaredNorm() < spare * spare;
 }
 
-// Whether a control point now at x, coupled to leaf ls, keeps the foot of its mark:
-// coupled to the same leaf, it has moved less than `keep` from where that foot was
-// found (a converged foot is that far off already). Its distance to the surface then
-// changes by the motion along the normal, to second order in the motion.
-bool KeepsFoot(const PairCache::FarMark& m, const Vec3& x, int ls, double keep) {
-  return m.foot_leaf >= 0 && m.coupled == ls && (x - m.x).squaredNorm() < keep * keep;
+// Whether a control point now at x, coupled to leaf ls, has a foot in its mark found
+// while coupled to the same leaf, less than r from x.
+bool FootWithin(const PairCache::FarMark& m, const Vec3& x, int ls, double r) {
+  return m.foot_leaf >= 0 && m.coupled == ls && (x - m.x).squaredNorm() < r * r;
 }
 
-// the start of a control point's next projection: its kept foot while it is near
-// where the foot was found (a tenth of the bandwidth), else none
+// Whether the point keeps that foot: it has moved less than `keep`, what a converged
+// foot may be off already. Its distance to the surface then changes by the motion
+// along the normal, to second order in the motion.
+bool KeepsFoot(const PairCache::FarMark& m, const Vec3& x, int ls, double keep) { return FootWithin(m, x, ls, keep); }
+
+// the start of a control point's next projection: its kept foot while it is within
+// a tenth of the bandwidth of where the foot was found, else none
 const Vec3* WarmStart(const PairCache::FarMark& m, const Vec3& x, int ls, double h) {
-  return m.foot_leaf >= 0 && m.coupled == ls && (x - m.x).squaredNorm() < 0.01 * h * h ? &m.foot : nullptr;
+  return FootWithin(m, x, ls, 0.1 * h) ? &m.foot : nullptr;
 }
 
 // How far a converged projection's gap may be from the distance to the MLS surface:
