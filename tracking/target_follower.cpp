@@ -28,15 +28,21 @@ void TargetFollower::Init(const TrackerConfig& config, const World& w) {
 }
 
 Pose TargetFollower::Interpolated(const Tip& tip, double t, Vec3* velocity) const {
-  if (!(tip.duration > 0.0) || t >= tip.t0 + tip.duration) {
-    velocity->setZero();
+  const double end = tip.t0 + tip.duration;
+  // the target's mean velocity over the step ending at t: the blend's velocity times
+  // the part of (t - dt, t] it moves in. The step that ends as the blend reaches its
+  // sample moves all the way (it had read zero there: with samples every 10 steps,
+  // one step in ten lost the damping's feed-forward and jerked a lifted box)
+  const double moving = std::clamp(std::min(t, end) - std::max(t - dt_, tip.t0), 0.0, dt_);
+  if (!(tip.duration > 0.0) || t >= end) {
+    *velocity = tip.duration > 0.0 ? Vec3((tip.to.t - tip.from.t) * (moving / (dt_ * tip.duration))) : Vec3::Zero();
     return tip.to;
   }
   const double s = std::clamp((t - tip.t0) / tip.duration, 0.0, 1.0);
   Pose p;
   p.t = tip.from.t + s * (tip.to.t - tip.from.t);
   p.R = Quat(tip.from.R).slerp(s, Quat(tip.to.R)).normalized().toRotationMatrix();
-  *velocity = (tip.to.t - tip.from.t) / tip.duration;
+  *velocity = (tip.to.t - tip.from.t) * (moving / (dt_ * tip.duration));
   return p;
 }
 

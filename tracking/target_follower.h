@@ -33,6 +33,8 @@ class TargetFollower {
   int size() const { return static_cast<int>(tips_.size()); }
   ETipState state(int i) const { return tips_[i].state; }
   const Pose& target(int i) const { return tips_[i].current; }
+  /// the target's mean velocity over the step that ends at the last Apply's time
+  const Vec3& velocity(int i) const { return tips_[i].velocity; }
   int body(int i) const { return tips_[i].body; }
   uint64_t samples() const { return samples_; }
 

@@ -31,6 +31,9 @@ constexpr double kStaticWait = 0.2;   // s to wait for a static instant
 constexpr double kHoldSink = 2e-4;    // m: the most a stage at 1.01 mu* may sink (a redistribution)
 constexpr double kSlip = 2e-5;        // m: the least a stage at 0.99 mu* must sink
 constexpr double kFell = 0.02;        // m: out of the hand
+// static: the step's forces balance the weight (1.47 N) to the solver's 1e-4
+constexpr double kStaticForce = 1.5e-4;  // N
+constexpr double kStaticTorque = 5e-6;   // N m
 
 struct Stage {
   double mu_star = NAN;     // at the stage's start
@@ -43,12 +46,18 @@ struct Stage {
 
 bool HandBody(const Body& b) { return b.motion == EMotion::Fingertip || b.name == "palm"; }
 
-// mu* at the first static instant from now (the step's forces balance the weight
-// in the normal directions, where friction cannot help)
+bool Static(const HoldingFriction& h) {
+  return std::isfinite(h.mu) && h.net_force < kStaticForce && h.net_torque < kStaticTorque;
+}
+
+// mu* at the first static instant from now: the step's forces balance the weight
+// (a step in which a contact comes or goes while the box re-seats jolts it: 0.06 N
+// in the power grasp, with the box still to 1e-8 m), and the normal forces can
+// (where friction cannot help). The last step's when none comes within kStaticWait.
 HoldingFriction StaticHoldingFriction(SyntheticDrive& d, int box) {
   World& w = d.world();
   HoldingFriction h = LeastHoldingFriction(w, box);
-  for (int i = 0; i * w.params.dt < kStaticWait && !std::isfinite(h.mu) && !StopRequested(); ++i) {
+  for (int i = 0; i * w.params.dt < kStaticWait && !Static(h) && !StopRequested(); ++i) {
     d.Step();
     h = LeastHoldingFriction(w, box);
   }
@@ -87,7 +96,7 @@ Stage RunStage(SyntheticDrive& d, int box, double ratio) {
 // a held state within Coulomb's law both ways: static (the weight, 1.47 N, balanced
 // to the solver's 1e-4), the step's forces within mu, and mu* no larger than theirs
 bool WithinCoulomb(const Stage& st) {
-  return st.end.net_force < 1.5e-4 && st.end.net_torque < 5e-6 && st.step_ratio <= st.mu * (1.0 + 1e-6) &&
+  return st.end.net_force < kStaticForce && st.end.net_torque < kStaticTorque && st.step_ratio <= st.mu * (1.0 + 1e-6) &&
          st.end.mu <= st.step_ratio * (1.0 + 1e-3);
 }
 
@@ -151,15 +160,19 @@ ValidationResult ReleaseStages(SyntheticDrive& d, int box, const Grasp& g, const
     if (!std::isfinite(st.mu_star)) break;
     fell = st.sank > kFell;
     stayed += st.sank < kSlip ? 1 : 0;
-    if (!fell) coulomb &= WithinCoulomb(st);
+    // a stage that ends still moving (no static instant in kStaticWait) is still
+    // slipping, as it must; one that re-seated must hold within the law
+    const bool still_slipping = !fell && !Static(st.end);
+    if (!fell && !still_slipping) coulomb &= WithinCoulomb(st);
     char buf[64];
-    std::snprintf(buf, sizeof buf, "%s%.3f mm", stages ? ", " : "", 1e3 * st.sank);
+    std::snprintf(buf, sizeof buf, "%s%.3f mm%s", stages ? ", " : "", 1e3 * st.sank,
+                  fell ? "" : (still_slipping ? " (still slipping)" : " (re-seated)"));
     slips += buf;
   }
   const int missed = stayed + (g.must_fall && !fell ? 1 : 0) + (coulomb ? 0 : 1);
   char detail[512];
   std::snprintf(detail, sizeof detail, "at 0.99 mu*, stage by stage the box sank %s%s%s (each more than %.2f mm)",
-                slips.c_str(), fell ? ": out of the hand" : (g.must_fall ? ": NOT FALLEN" : ", re-seated each time"),
+                slips.c_str(), fell ? ": out of the hand" : (g.must_fall ? ": NOT FALLEN" : ""),
                 coulomb ? "" : "; a hold OUTSIDE Coulomb's law", 1e3 * kSlip);
   return Result(name, stages > 0 ? missed : NAN, 0.0, "stages that stayed put", detail, mode);
 }

@@ -136,9 +136,11 @@ TEST(Validation, WholeHandHoldsAtOnePercentAboveItsHoldingFrictionAndSlipsBelow)
       ASSERT_NE(hold, nullptr) << grasp << " " << mode;
       ASSERT_NE(release, nullptr) << grasp << " " << mode;
       EXPECT_EQ(hold->detail.find("OUTSIDE"), std::string::npos) << hold->detail;
-      // the pinch falls out of the hand below mu*; the power grasp re-seats on its phalanges
-      EXPECT_NE(release->detail.find(g == "pinch" ? "out of the hand" : "re-seated each time"), std::string::npos)
+      // the pinch falls out of the hand below mu*; the power grasp slips and re-seats on
+      // its phalanges (a stage may end still slipping), its last stage held within the law
+      EXPECT_NE(release->detail.find(g == "pinch" ? "out of the hand" : "(re-seated) (each"), std::string::npos)
           << release->detail;
+      EXPECT_EQ(release->detail.find("OUTSIDE"), std::string::npos) << release->detail;
     }
 }
 

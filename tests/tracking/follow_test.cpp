@@ -227,6 +227,37 @@ TEST(TargetFollower, WaitsInterpolatesHoldsAndReleases) {
   EXPECT_EQ(f.state(0), ETipState::Tracking);
 }
 
+// Samples of a target moving at 0.1 m/s, every 10 steps, pushed at the start of the
+// step they arrive in and applied at its end (as TrackedSim does): every step's
+// target velocity, the damping's feed-forward, is the motion's, including the step
+// that ends as a blend reaches its sample (it read zero, and one step in ten the
+// couplings lost their pull: a lifted box jerked at the tracker's rate). A sample
+// that comes late leaves the target still, at zero velocity, until it arrives.
+TEST(TargetFollower, SteadySamplesGiveEveryStepTheirVelocity) {
+  World w = OneTipWorld();
+  TargetFollower f;
+  f.Init(OneTipConfig(), w);
+  const double dt = w.params.dt;
+  const Vec3 v(0.1, 0, 0);
+  int checked = 0;
+  for (int k = 0; k < 100; ++k) {
+    const double t = k * dt;
+    if (k % 10 == 0) f.Push(OneTip(Vec3(0, 0, 0.1) + v * t), t);
+    f.Apply(w, t + dt);
+    if (k < 10) continue;  // the first sample applies at once; the blends start with the second
+    EXPECT_LT((f.velocity(0) - v).norm(), 1e-9 * v.norm()) << "step " << k;
+    EXPECT_NEAR(f.target(0).t.x(), v.x() * (t + dt - 0.01), 1e-12) << "step " << k;
+    ++checked;
+  }
+  EXPECT_EQ(checked, 90);
+  // the next sample 3 steps late: the target stops at the last one for those steps
+  for (int k = 100; k < 103; ++k) {
+    f.Apply(w, (k + 1) * dt);
+    EXPECT_EQ(f.velocity(0), Vec3::Zero()) << "step " << k;
+    EXPECT_NEAR(f.target(0).t.x(), v.x() * 0.09, 1e-12);
+  }
+}
+
 TEST(TargetFollower, NoDatagramsAtAllReleasesAfterTheTimeout) {
   World w = OneTipWorld();
   TargetFollower f;
