@@ -39,7 +39,7 @@ DriveTerms Terms(const Drive& d, const Pose& pose, double dt) {
   t.linear = K + Rt * d.damping.asDiagonal() * Rt.transpose() / dt;
   t.angular = Ka + Rt * d.angular_damping.asDiagonal() * Rt.transpose() / dt;
   t.force = spring + Rt * d.force;
-  t.torque = Ka * RotationVector(d.target.R * pose.R.transpose());
+  t.torque = Ka * RotationVector(d.target.R * pose.R.transpose()) + Rt * d.torque;
   return t;
 }
 

@@ -25,6 +25,7 @@ bool SamePose(const Pose& a, const Pose& b) { return a.t == b.t && a.R == b.R; }
 bool SameDrive(const Drive& a, const Drive& b) {
   return a.enabled == b.enabled && a.stiffness == b.stiffness && a.damping == b.damping &&
          a.angular_stiffness == b.angular_stiffness && a.angular_damping == b.angular_damping && a.force == b.force &&
+         a.torque == b.torque &&
          a.max_force == b.max_force && SamePose(a.target, b.target);
 }
 

@@ -22,9 +22,10 @@ Vec3 Clamped(const Vec3& v, double max_norm) {
 
 }  // namespace
 
-void SetCouplingTarget(Body& b, const Vec3& gravity, const CouplingParams& p, const Pose& target, const Vec3& velocity) {
+void SetCouplingTarget(Body& b, const Vec3& gravity, const CouplingParams& p, const Pose& target, const Vec3& velocity,
+                       const Vec3& angular_velocity) {
   // a non-finite target (a corrupt tracker sample) is ignored: the drive keeps its last target
-  if (!target.t.allFinite() || !target.R.allFinite() || !velocity.allFinite()) return;
+  if (!target.t.allFinite() || !target.R.allFinite() || !velocity.allFinite() || !angular_velocity.allFinite()) return;
   SetGains(b, p, true);
   Drive& d = b.drive;
   // the spring force K (x_t - x) stays within max_force
@@ -40,12 +41,14 @@ void SetCouplingTarget(Body& b, const Vec3& gravity, const CouplingParams& p, co
   Vec3 f = Clamped(p.damping * velocity, p.max_force);
   if (p.gravity_compensation) f -= b.mass * gravity;
   d.force = d.target.R.transpose() * f;  // Drive::force is in the target frame
+  d.torque = d.target.R.transpose() * Clamped(p.angular_damping * angular_velocity, p.max_torque);
 }
 
 void ReleaseCoupling(Body& b, const Vec3& gravity, const CouplingParams& p) {
   SetGains(b, p, false);
   b.drive.target = b.pose;
   b.drive.force = p.gravity_compensation ? Vec3(b.pose.R.transpose() * (-b.mass * gravity)) : Vec3::Zero();
+  b.drive.torque.setZero();
 }
 
 Vec3 CouplingSpringForce(const Body& b) {

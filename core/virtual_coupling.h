@@ -21,13 +21,16 @@ struct CouplingParams {
   double angular_stiffness = 0.02;    ///< N m/rad
   double angular_damping = 2e-4;      ///< N m s/rad
   double max_force = 20.0;            ///< N, bound of the spring and of the feed-forward force
-  double max_torque = 0.05;           ///< N m, bound of the angular spring
+  double max_torque = 0.05;           ///< N m, bound of the angular spring and of the feed-forward torque
   bool gravity_compensation = true;
 };
 
-/// Points the body's drive at `target`, which moves with `velocity` (m/s, world).
-/// A target or velocity that is not finite is ignored (the drive is left as it was).
-void SetCouplingTarget(Body& b, const Vec3& gravity, const CouplingParams& p, const Pose& target, const Vec3& velocity);
+/// Points the body's drive at `target`, which moves with `velocity` (m/s, world) and
+/// turns with `angular_velocity` (rad/s, world): the damping's feed-forward of both
+/// (within max_force and max_torque) leaves no lag behind a target moving or turning
+/// steadily. A target or velocity that is not finite is ignored (the drive is left as it was).
+void SetCouplingTarget(Body& b, const Vec3& gravity, const CouplingParams& p, const Pose& target, const Vec3& velocity,
+                       const Vec3& angular_velocity);
 
 /// A limp coupling: no spring, only damping toward rest (and gravity compensation):
 /// the body holds its place but pushes on nothing.

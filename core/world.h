@@ -51,6 +51,7 @@ struct Drive {
   Vec3 angular_stiffness = Vec3::Zero();  ///< N m/rad
   Vec3 angular_damping = Vec3::Zero();    ///< N m s/rad
   Vec3 force = Vec3::Zero();              ///< N, target frame
+  Vec3 torque = Vec3::Zero();             ///< N m, target frame (a feed-forward, like force)
   double max_force = 1e300;               ///< clamp of the spring force (N)
   Pose target;
 };

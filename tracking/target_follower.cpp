@@ -27,22 +27,27 @@ void TargetFollower::Init(const TrackerConfig& config, const World& w) {
   samples_ = 0;
 }
 
-Pose TargetFollower::Interpolated(const Tip& tip, double t, Vec3* velocity) const {
+Pose TargetFollower::Interpolated(const Tip& tip, double t, Vec3* velocity, Vec3* angular_velocity) const {
   const double end = tip.t0 + tip.duration;
-  // the target's mean velocity over the step ending at t: the blend's velocity times
-  // the part of (t - dt, t] it moves in. The step that ends as the blend reaches its
+  // the target's mean velocities over the step ending at t: the blend's times the
+  // part of (t - dt, t] it moves in. The step that ends as the blend reaches its
   // sample moves all the way (it had read zero there: with samples every 10 steps,
   // one step in ten lost the damping's feed-forward and jerked a lifted box)
   const double moving = std::clamp(std::min(t, end) - std::max(t - dt_, tip.t0), 0.0, dt_);
-  if (!(tip.duration > 0.0) || t >= end) {
-    *velocity = tip.duration > 0.0 ? Vec3((tip.to.t - tip.from.t) * (moving / (dt_ * tip.duration))) : Vec3::Zero();
-    return tip.to;
+  if (tip.duration > 0.0) {
+    const double f = moving / (dt_ * tip.duration);
+    const Eigen::AngleAxisd turn(tip.to.R * tip.from.R.transpose());  // the blend's rotation (world)
+    *velocity = (tip.to.t - tip.from.t) * f;
+    *angular_velocity = turn.axis() * (turn.angle() * f);
+  } else {
+    velocity->setZero();
+    angular_velocity->setZero();
   }
+  if (!(tip.duration > 0.0) || t >= end) return tip.to;
   const double s = std::clamp((t - tip.t0) / tip.duration, 0.0, 1.0);
   Pose p;
   p.t = tip.from.t + s * (tip.to.t - tip.from.t);
   p.R = Quat(tip.from.R).slerp(s, Quat(tip.to.R)).normalized().toRotationMatrix();
-  *velocity = (tip.to.t - tip.from.t) * (moving / (dt_ * tip.duration));
   return p;
 }
 
@@ -59,16 +64,16 @@ void TargetFollower::Push(const TargetSample& s, double t) {
     if (!valid) {
       // hold the target reached so far
       if (tip.state == ETipState::Tracking) {
-        Vec3 v;
-        tip.to = tip.from = Interpolated(tip, t, &v);
+        Vec3 v, omega;
+        tip.to = tip.from = Interpolated(tip, t, &v, &omega);
         tip.duration = 0.0;
         tip.state = ETipState::Lost;
       }
       continue;
     }
-    Vec3 v;
+    Vec3 v, omega;
     // from where the target is now (a released fingertip: from where the body is)
-    tip.from = tip.state == ETipState::Released ? tip.current : Interpolated(tip, t, &v);
+    tip.from = tip.state == ETipState::Released ? tip.current : Interpolated(tip, t, &v, &omega);
     tip.to = s.pose[i];
     tip.t0 = t;
     tip.duration = tip.state == ETipState::Waiting ? 0.0 : duration;
@@ -88,10 +93,11 @@ void TargetFollower::Apply(World& w, double t) {
       ReleaseCoupling(b, w.params.gravity, config_.coupling);
       tip.current = b.pose;
       tip.velocity.setZero();
+      tip.angular_velocity.setZero();
       continue;
     }
-    tip.current = Interpolated(tip, t, &tip.velocity);
-    SetCouplingTarget(b, w.params.gravity, config_.coupling, tip.current, tip.velocity);
+    tip.current = Interpolated(tip, t, &tip.velocity, &tip.angular_velocity);
+    SetCouplingTarget(b, w.params.gravity, config_.coupling, tip.current, tip.velocity, tip.angular_velocity);
   }
 }
 

@@ -33,8 +33,10 @@ class TargetFollower {
   int size() const { return static_cast<int>(tips_.size()); }
   ETipState state(int i) const { return tips_[i].state; }
   const Pose& target(int i) const { return tips_[i].current; }
-  /// the target's mean velocity over the step that ends at the last Apply's time
+  /// the target's mean velocity and angular velocity (world) over the step that
+  /// ends at the last Apply's time
   const Vec3& velocity(int i) const { return tips_[i].velocity; }
+  const Vec3& angular_velocity(int i) const { return tips_[i].angular_velocity; }
   int body(int i) const { return tips_[i].body; }
   uint64_t samples() const { return samples_; }
 
@@ -45,9 +47,9 @@ class TargetFollower {
     Pose from, to, current;
     double t0 = 0.0, duration = 0.0;
     double last_valid = -1e300;
-    Vec3 velocity = Vec3::Zero();
+    Vec3 velocity = Vec3::Zero(), angular_velocity = Vec3::Zero();
   };
-  Pose Interpolated(const Tip& tip, double t, Vec3* velocity) const;
+  Pose Interpolated(const Tip& tip, double t, Vec3* velocity, Vec3* angular_velocity) const;
 
   TrackerConfig config_;
   std::vector<Tip> tips_;

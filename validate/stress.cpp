@@ -314,7 +314,7 @@ StressResult CaseCouplingStiffness(const StressOptions& o, double K, const std::
   c.what = what;
   c.steps = Steps(o, 1000, 400, 150);
   c.energy_limit = 5.0 * 0.03;  // the bounded push over a few cm of travel
-  c.before_step = [=](World& w, int64_t) { SetCouplingTarget(w.bodies[tip], w.params.gravity, cp, target, Vec3::Zero()); };
+  c.before_step = [=](World& w, int64_t) { SetCouplingTarget(w.bodies[tip], w.params.gravity, cp, target, Vec3::Zero(), Vec3::Zero()); };
   c.expect = [=](const World& w, std::string* d) {
     const double top = w.bodies[box].pose.t.z() + 0.02, tip_low = w.bodies[tip].pose.t.z() - 0.008;
     char s[200];

@@ -29,7 +29,6 @@ namespace {
 constexpr double kStage = 0.5;        // s per friction stage
 constexpr double kStaticWait = 0.2;   // s to wait for a static instant
 constexpr double kHoldSink = 2e-4;    // m: the most a stage at 1.01 mu* may sink (a redistribution)
-constexpr double kSlip = 2e-5;        // m: the least a stage at 0.99 mu* must sink
 constexpr double kFell = 0.02;        // m: out of the hand
 // static: the step's forces balance the weight (1.47 N) to the solver's 1e-4
 constexpr double kStaticForce = 1.5e-4;  // N
@@ -147,34 +146,38 @@ ValidationResult HoldStages(SyntheticDrive& d, int box, const std::string& name,
   return Result(name, coulomb ? worst : NAN, kHoldSink, "m", detail, mode);
 }
 
-// 1 % below, stage after stage: each slips, out of the hand or into a state the
-// friction then holds, within the law. The error: the stages that stayed put (and
-// a pinch that never fell, a hold outside the law)
+// 1 % below, stage after stage: none may hold the state it started from. Each ends
+// out of the hand, still slipping, or re-seated: static in a state the friction
+// covers (WithinCoulomb: mu* at the end no larger than the step's largest |t|/N,
+// itself within mu = 0.99 of the start's mu*), which the box reaches only by
+// moving. How far it moves is the grasp's compliance, not the law: the power grasp
+// re-seats after hundredths of a millimetre, and so may the two-pass pinch (its
+// holds at 1.01 mu* sink as far). The error: the stages that ended held outside the
+// law, and a pinch that never fell within four.
 ValidationResult ReleaseStages(SyntheticDrive& d, int box, const Grasp& g, const std::string& name, const char* mode) {
-  int stayed = 0, stages = 0;
-  bool fell = false, coulomb = true;
+  int outside = 0, stages = 0;
+  bool fell = false;
   std::string slips;
   const int most = g.must_fall ? 4 : 3;  // three show the power grasp re-seating
   for (; stages < most && !fell && !StopRequested(); ++stages) {
     const Stage st = RunStage(d, box, 0.99);
     if (!std::isfinite(st.mu_star)) break;
     fell = st.sank > kFell;
-    stayed += st.sank < kSlip ? 1 : 0;
-    // a stage that ends still moving (no static instant in kStaticWait) is still
-    // slipping, as it must; one that re-seated must hold within the law
+    // no static instant within kStaticWait: still slipping, as it must
     const bool still_slipping = !fell && !Static(st.end);
-    if (!fell && !still_slipping) coulomb &= WithinCoulomb(st);
-    char buf[64];
+    const bool held_outside = !fell && !still_slipping && !WithinCoulomb(st);
+    outside += held_outside ? 1 : 0;
+    char buf[96];
     std::snprintf(buf, sizeof buf, "%s%.3f mm%s", stages ? ", " : "", 1e3 * st.sank,
-                  fell ? "" : (still_slipping ? " (still slipping)" : " (re-seated)"));
+                  fell ? "" : (still_slipping ? " (still slipping)"
+                                              : (held_outside ? " (HELD OUTSIDE Coulomb's law)" : " (re-seated)")));
     slips += buf;
   }
-  const int missed = stayed + (g.must_fall && !fell ? 1 : 0) + (coulomb ? 0 : 1);
+  const int missed = outside + (g.must_fall && !fell ? 1 : 0);
   char detail[512];
-  std::snprintf(detail, sizeof detail, "at 0.99 mu*, stage by stage the box sank %s%s%s (each more than %.2f mm)",
-                slips.c_str(), fell ? ": out of the hand" : (g.must_fall ? ": NOT FALLEN" : ""),
-                coulomb ? "" : "; a hold OUTSIDE Coulomb's law", 1e3 * kSlip);
-  return Result(name, stages > 0 ? missed : NAN, 0.0, "stages that stayed put", detail, mode);
+  std::snprintf(detail, sizeof detail, "at 0.99 mu*, stage by stage the box sank %s%s", slips.c_str(),
+                fell ? ": out of the hand" : (g.must_fall ? ": NOT FALLEN" : ""));
+  return Result(name, stages > 0 ? missed : NAN, 0.0, "stages held outside the law", detail, mode);
 }
 
 void ValidateGrasp(const Grasp& g, bool two_pass, std::vector<ValidationResult>* out) {

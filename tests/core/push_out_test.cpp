@@ -64,19 +64,21 @@ TEST(VirtualCoupling, NonFiniteTargetIsIgnored) {
   b.pose = Pose::Translation(Vec3(0, 0, 0.05));
   CouplingParams p;
   const Pose good = Pose::Translation(Vec3(0.01, 0, 0.05));
-  SetCouplingTarget(b, Vec3(0, 0, -9.81), p, good, Vec3::Zero());
+  SetCouplingTarget(b, Vec3(0, 0, -9.81), p, good, Vec3::Zero(), Vec3::Zero());
   const Drive before = b.drive;
   Pose bad = good;
   bad.t.x() = NAN;
-  SetCouplingTarget(b, Vec3(0, 0, -9.81), p, bad, Vec3::Zero());
+  SetCouplingTarget(b, Vec3(0, 0, -9.81), p, bad, Vec3::Zero(), Vec3::Zero());
   EXPECT_TRUE(b.drive.target.t.allFinite());
   EXPECT_EQ((b.drive.target.t - before.target.t).norm(), 0.0);
   bad = good;
   bad.R(1, 1) = INFINITY;
-  SetCouplingTarget(b, Vec3(0, 0, -9.81), p, bad, Vec3::Zero());
-  SetCouplingTarget(b, Vec3(0, 0, -9.81), p, good, Vec3(NAN, 0, 0));
+  SetCouplingTarget(b, Vec3(0, 0, -9.81), p, bad, Vec3::Zero(), Vec3::Zero());
+  SetCouplingTarget(b, Vec3(0, 0, -9.81), p, good, Vec3(NAN, 0, 0), Vec3::Zero());
+  SetCouplingTarget(b, Vec3(0, 0, -9.81), p, good, Vec3::Zero(), Vec3(0, NAN, 0));
   EXPECT_TRUE(b.drive.target.R.allFinite());
   EXPECT_TRUE(b.drive.force.allFinite());
+  EXPECT_TRUE(b.drive.torque.allFinite());
 }
 
 }  // namespace

@@ -250,11 +250,32 @@ TEST(TargetFollower, SteadySamplesGiveEveryStepTheirVelocity) {
     ++checked;
   }
   EXPECT_EQ(checked, 90);
+  EXPECT_EQ(f.angular_velocity(0), Vec3::Zero());  // it does not turn
   // the next sample 3 steps late: the target stops at the last one for those steps
   for (int k = 100; k < 103; ++k) {
     f.Apply(w, (k + 1) * dt);
     EXPECT_EQ(f.velocity(0), Vec3::Zero()) << "step " << k;
     EXPECT_NEAR(f.target(0).t.x(), v.x() * 0.09, 1e-12);
+  }
+}
+
+// samples of a target turning at 1 rad/s about x: every step's angular velocity is the turn's
+TEST(TargetFollower, TurningSamplesGiveEveryStepTheirAngularVelocity) {
+  World w = OneTipWorld();
+  TargetFollower f;
+  f.Init(OneTipConfig(), w);
+  const double dt = w.params.dt;
+  for (int k = 0; k < 60; ++k) {
+    const double t = k * dt;
+    if (k % 10 == 0) f.Push([&] {
+        TargetSample s = OneTip(Vec3(0, 0, 0.1));
+        s.pose[0].R = Eigen::AngleAxisd(1.0 * t, Vec3::UnitX()).toRotationMatrix();
+        return s;
+      }(), t);
+    f.Apply(w, t + dt);
+    if (k >= 10) {
+      EXPECT_LT((f.angular_velocity(0) - Vec3(1.0, 0, 0)).norm(), 1e-9) << "step " << k;
+    }
   }
 }
 
@@ -279,7 +300,7 @@ TEST(VirtualCoupling, TrackerJumpInjectsBoundedEnergy) {
   const Pose far = Pose::FromAxisAngle(Vec3::UnitX(), 3.0, Vec3(1.0, 0, 0.1));
   double max_speed = 0.0;
   for (int i = 0; i < 50; ++i) {
-    SetCouplingTarget(b, w.params.gravity, p, far, Vec3::Zero());
+    SetCouplingTarget(b, w.params.gravity, p, far, Vec3::Zero(), Vec3::Zero());
     EXPECT_LE(CouplingSpringForce(b).norm(), p.max_force + 1e-9);
     const Eigen::AngleAxisd rel(b.drive.target.R * b.pose.R.transpose());
     EXPECT_LE(rel.angle() * p.angular_stiffness, p.max_torque + 1e-9);
@@ -290,7 +311,7 @@ TEST(VirtualCoupling, TrackerJumpInjectsBoundedEnergy) {
   EXPECT_LE(max_speed, p.max_force / b.mass * 50 * w.params.dt + 1e-9);
   EXPECT_GT(b.pose.t.x(), 0.01);  // and it does move toward the target
   // an unreachable target velocity is bounded too
-  SetCouplingTarget(b, w.params.gravity, p, far, Vec3(1e6, 0, 0));
+  SetCouplingTarget(b, w.params.gravity, p, far, Vec3(1e6, 0, 0), Vec3(0, 0, 1e6));
   EXPECT_LE((b.drive.target.R * b.drive.force + b.mass * w.params.gravity).norm(), p.max_force + 1e-9);
 }
 
@@ -301,12 +322,36 @@ TEST(VirtualCoupling, FollowsAMovingTargetWithoutLag) {
   const Vec3 v(0.1, 0, 0);  // 10 cm/s
   for (int i = 0; i < 500; ++i) {
     const double t = w.time + w.params.dt;
-    SetCouplingTarget(b, w.params.gravity, p, Pose::Translation(Vec3(0, 0, 0.1) + v * t), v);
+    SetCouplingTarget(b, w.params.gravity, p, Pose::Translation(Vec3(0, 0, 0.1) + v * t), v, Vec3::Zero());
     w.Step();
   }
   // with the feed-forward, steady-state error well under the v D / K = 1 mm of a plain spring-damper
   EXPECT_LT(std::abs(b.pose.t.x() - v.x() * w.time), 2e-4);
   EXPECT_NEAR(b.pose.t.z(), 0.1, 1e-4);  // weight compensated
+}
+
+// A target turning steadily at 2 rad/s about z: with the angular feed-forward the
+// body turns with it; a plain angular spring-damper lags by w D_a / K_a = 0.02 rad
+// (the couplings' 2e-4 N m s/rad over 0.02 N m/rad).
+TEST(VirtualCoupling, FollowsATurningTargetWithoutLag) {
+  for (const bool feed_forward : {true, false}) {
+    World w = OneTipWorld();
+    CouplingParams p;
+    Body& b = w.bodies[0];
+    const Vec3 omega(0, 0, 2.0);
+    for (int i = 0; i < 500; ++i) {
+      const double t = w.time + w.params.dt;
+      const Pose target = Pose::FromAxisAngle(Vec3::UnitZ(), omega.z() * t, Vec3(0, 0, 0.1));
+      SetCouplingTarget(b, w.params.gravity, p, target, Vec3::Zero(), feed_forward ? omega : Vec3::Zero());
+      w.Step();
+    }
+    const Eigen::AngleAxisd lag(Eigen::AngleAxisd(omega.z() * w.time, Vec3::UnitZ()).toRotationMatrix() *
+                                b.pose.R.transpose());
+    if (feed_forward)
+      EXPECT_LT(lag.angle(), 2e-3);
+    else
+      EXPECT_NEAR(lag.angle(), omega.z() * p.angular_damping / p.angular_stiffness, 4e-3);
+  }
 }
 
 }  // namespace

@@ -748,11 +748,11 @@ TEST(WholeHand, JointLimitsStopAFingerTheGloveBendsPastThem) {
   for (int step = 0; step < 400; ++step) {
     for (int l = 0; l < 3; ++l) {
       Body& seg = w.bodies[f.segment_body[l]];
-      SetCouplingTarget(seg, w.params.gravity, coupling, k.link[l] * f.segment_offset[l], Vec3::Zero());
+      SetCouplingTarget(seg, w.params.gravity, coupling, k.link[l] * f.segment_offset[l], Vec3::Zero(), Vec3::Zero());
     }
     // the palm holds where it is
     SetCouplingTarget(w.bodies[w.hand.carrier], w.params.gravity, coupling, w.bodies[w.hand.carrier].pose,
-                      Vec3::Zero());
+                      Vec3::Zero(), Vec3::Zero());
     w.Step();
   }
   const Finger& g = w.hand.fingers[index];
