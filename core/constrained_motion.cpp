@@ -98,29 +98,60 @@ void MoveArticulations(World& w) {
   }
 }
 
-// control points: eq. 7, and what refit needs to know (the live points: the
-// others are at rest, u = u_free = u_acc = 0, and stay unchanged)
+// a control point's spread (the most its neighbours' displacements differ from its
+// own, max over its influence of |u_k - u_j|) is measured again once what it may have
+// changed by since its last measure exceeds this fraction of that measure, or this
+// fraction of a control-point spacing; until then refit inflates the leaf by the bound
+constexpr double kSpreadSlack = 0.1;
+constexpr double kSpreadSlackOfSpacing = 0.01;
+
+// eq. 7 on the body's live points (the others are at rest, u = u_free = u_acc = 0,
+// and stay unchanged), marking the changed ones for refit; returns the largest change
+double IntegrateControlPoints(Body& b) {
+  double most2 = 0.0;
+  for (int j : b.live) {
+    const Vec3 u_new = b.u_free[j] + b.u_acc[j];
+    const double d2 = (u_new - b.u[j]).squaredNorm();
+    if (d2 > 1e-24) b.u_changed[j] = 1;
+    most2 = std::max(most2, d2);
+    b.u[j] = u_new;
+  }
+  return std::sqrt(most2);
+}
+
+// what refit needs to know: the spreads of the changed points. Since its last
+// measure a spread can have grown by no more than its own point's and a neighbour's
+// changes, each at most the body's largest change of a step: twice their sum over
+// the steps (spread_slack - spread_mark). Within kSpreadSlack of the measure that
+// bound stands for it; past that it is measured (a scan of the point's influence, the
+// stage's main cost: every control point of a box the hand lifts moves every step)
+void UpdateSpreads(Body& b, double largest_change) {
+  b.spread_slack += 2.0 * largest_change;
+  const double floor = kSpreadSlackOfSpacing * b.deform.spacing();
+  for (int j : b.live) {
+    if (!b.u_changed[j]) continue;
+    const double slack = b.spread_slack - b.spread_mark[j];
+    if (slack <= std::max(kSpreadSlack * b.spread_base[j], floor)) {
+      b.u_spread[j] = b.spread_base[j] + slack;
+      continue;
+    }
+    const int* idx;
+    const double* phi;
+    const int n = b.deform.Influence(j, &idx, &phi);
+    // the largest squared distance, one square root
+    const Vec3 uj = b.u[j];
+    double spread2 = 0.0;
+    for (int k = 0; k < n; ++k) spread2 = std::max(spread2, (b.u[idx[k]] - uj).squaredNorm());
+    b.u_spread[j] = b.spread_base[j] = std::sqrt(spread2);
+    b.spread_mark[j] = b.spread_slack;
+  }
+}
+
 void MoveControlPoints(World& w) {
   for (Body& b : w.bodies) {
     if (!b.deform.enabled()) continue;
     w.profile.work.deformed_points += static_cast<int>(b.live.size());
-    for (int j : b.live) {
-      const Vec3 u_new = b.u_free[j] + b.u_acc[j];
-      if ((u_new - b.u[j]).squaredNorm() > 1e-24) b.u_changed[j] = 1;
-      b.u[j] = u_new;
-    }
-    for (int j : b.live) {
-      if (!b.u_changed[j]) continue;
-      const int* idx;
-      const double* phi;
-      const int n = b.deform.Influence(j, &idx, &phi);
-      // the largest squared distance, one square root (this loop runs over the
-      // influence of every control point that moved: most of this stage's time)
-      const Vec3 uj = b.u[j];
-      double spread2 = 0.0;
-      for (int k = 0; k < n; ++k) spread2 = std::max(spread2, (b.u[idx[k]] - uj).squaredNorm());
-      b.u_spread[j] = std::sqrt(spread2);
-    }
+    UpdateSpreads(b, IntegrateControlPoints(b));
   }
 }
 

@@ -140,6 +140,7 @@ void World::Finalize() {
     b.u_free.assign(leaves, Vec3::Zero());
     b.u_acc.assign(leaves, Vec3::Zero());
     b.u_spread.assign(leaves, 0.0);
+    b.ForgetSpreads();
     b.u_changed.assign(leaves, 0);
     b.live.clear();
     b.live.reserve(leaves);

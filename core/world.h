@@ -23,6 +23,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <limits>
 #include <string>
 
 #include "core/body_geometry.h"
@@ -73,6 +74,11 @@ struct Body {
   std::vector<Vec3> u_free;   ///< this step's free displacements
   std::vector<Vec3> u_acc;    ///< displacement from this step's contact forces
   std::vector<double> u_spread;
+  /// u_spread's bound (constrained_motion.cpp, UpdateSpreads): each control point's
+  /// spread as last measured, and spread_slack (twice the sum over the steps of the
+  /// body's largest displacement change) at that time; -inf: measure at the next change
+  std::vector<double> spread_base, spread_mark;
+  double spread_slack = 0.0;
   std::vector<uint8_t> u_changed;
   /// The control points whose displacement the step integrates (free motion's
   /// relaxation, constrained motion's eq. 7): every point a contact force can have
@@ -97,8 +103,15 @@ struct Body {
         live.push_back(idx[k]);
       }
   }
+  /// Every spread measured again at its next change (after u was written by hand).
+  void ForgetSpreads() {
+    spread_base.assign(u.size(), 0.0);
+    spread_mark.assign(u.size(), -std::numeric_limits<double>::infinity());
+    spread_slack = 0.0;
+  }
   /// Every control point live (after u was written by hand).
   void AllLive() {
+    ForgetSpreads();
     live.resize(u.size());
     for (size_t j = 0; j < u.size(); ++j) live[j] = static_cast<int>(j);
     std::fill(live_mark.begin(), live_mark.end(), 1);
