@@ -31,14 +31,13 @@ Pose TargetFollower::Interpolated(const Tip& tip, double t, Vec3* velocity, Vec3
   const double end = tip.t0 + tip.duration;
   // the target's mean velocities over the step ending at t: the blend's times the
   // part of (t - dt, t] it moves in. The step that ends as the blend reaches its
-  // sample moves all the way (it had read zero there: with samples every 10 steps,
-  // one step in ten lost the damping's feed-forward and jerked a lifted box)
+  // sample moves all the way (zero there would drop the couplings' damping
+  // feed-forward once every sample interval, a jerk at the tracker's rate)
   const double moving = std::clamp(std::min(t, end) - std::max(t - dt_, tip.t0), 0.0, dt_);
   if (tip.duration > 0.0) {
     const double f = moving / (dt_ * tip.duration);
-    const Eigen::AngleAxisd turn(tip.to.R * tip.from.R.transpose());  // the blend's rotation (world)
-    *velocity = (tip.to.t - tip.from.t) * f;
-    *angular_velocity = turn.axis() * (turn.angle() * f);
+    *velocity = tip.shift * f;
+    *angular_velocity = tip.turn * f;
   } else {
     velocity->setZero();
     angular_velocity->setZero();
@@ -75,6 +74,9 @@ void TargetFollower::Push(const TargetSample& s, double t) {
     // from where the target is now (a released fingertip: from where the body is)
     tip.from = tip.state == ETipState::Released ? tip.current : Interpolated(tip, t, &v, &omega);
     tip.to = s.pose[i];
+    tip.shift = tip.to.t - tip.from.t;
+    const Eigen::AngleAxisd turn(tip.to.R * tip.from.R.transpose());  // the blend's rotation (world)
+    tip.turn = turn.axis() * turn.angle();
     tip.t0 = t;
     tip.duration = tip.state == ETipState::Waiting ? 0.0 : duration;
     tip.last_valid = t;

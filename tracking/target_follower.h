@@ -45,6 +45,7 @@ class TargetFollower {
     int body = -1;
     ETipState state = ETipState::Waiting;
     Pose from, to, current;
+    Vec3 shift = Vec3::Zero(), turn = Vec3::Zero();  ///< the blend's translation and rotation vector (world)
     double t0 = 0.0, duration = 0.0;
     double last_valid = -1e300;
     Vec3 velocity = Vec3::Zero(), angular_velocity = Vec3::Zero();
