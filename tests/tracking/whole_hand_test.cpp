@@ -873,6 +873,37 @@ TEST(WholeHand, TheLiftedBoxRisesWithTheHandWithoutAJerkAtEachSample) {
   EXPECT_LT(worst, 2e-3);
 }
 
+// The shipped scene at the paper's densities, stepped offline as a replay steps it:
+// every step of the synthetic grasp (closing, lift, 3 s hold, release) ends with its
+// contacts solved to the scene's tolerance. There the box's control points lie 2 mm
+// apart under skins 3-4 mm wide, and the lift's solves take up to 650 Gauss-Seidel
+// sweeps; with the shipped scenes' cap of 50, 806 of the replay's 6,300 steps ended
+// unconverged.
+TEST(WholeHand, ThePaperDensitySceneSolvesEveryStepOfTheGrasp) {
+#ifdef GRASPSIM_SANITIZED
+  GTEST_SKIP() << "5,800 steps of a 74,400-point scene (an hour under sanitizers); the release build runs it";
+#endif
+  std::ifstream f(std::string(GRASPSIM_SOURCE_DIR) + "/config/whole_hand_paper_density.yaml");
+  std::stringstream text;
+  text << f.rdbuf();
+  Session s(text.str());
+  ASSERT_TRUE(s.ok());
+  World& w = s.sim().world();
+  const int box = s.sim().scene().tracked_body;
+  int unconverged = 0, most_sweeps = 0;
+  double highest = 0.0;
+  while (w.time < s.hand().duration_s - 0.5e-3) {
+    s.RunTo(w.time + w.params.dt);
+    unconverged += !w.profile.converged;
+    most_sweeps = std::max(most_sweeps, w.profile.iterations);
+    highest = std::max(highest, w.bodies[box].pose.t.z());
+  }
+  std::printf("paper densities: %d unconverged steps, at most %d sweeps\n", unconverged, most_sweeps);
+  EXPECT_EQ(unconverged, 0);
+  EXPECT_EQ(w.rejected_steps, 0);
+  EXPECT_GT(highest, 0.0302 + 0.04);  // lifted
+}
+
 TEST(WholeHand, PowerGraspCannotLiftTheBoxAtFrictionOneTenth) {
   // the same grasp with too little friction: the fingers slide up the faces
   const Hold h = RunGrasp(Replace(SceneText(), "default: 0.5", "default: 0.1"), 2.2);
