@@ -285,6 +285,11 @@ struct SleepParams {
   double max_drift = 2e-5;         ///< m: farthest a point may move from where the body fell asleep
 };
 
+/// The step's default sweep cap (WorldParams::solver.max_iterations). Dense contacts
+/// under wide skins need hundreds of sweeps (the whole hand at the paper's densities:
+/// up to 650 in its lift); a live loop's time budget stops a solve before its cap.
+constexpr int kStepSweepCap = 1000;
+
 struct WorldParams {
   double dt = 1e-3;
   Vec3 gravity = Vec3(0, 0, -9.81);
@@ -295,6 +300,7 @@ struct WorldParams {
   NsgsParams solver = [] {
     NsgsParams p;
     p.measure = EStopMeasure::Scaled;
+    p.max_iterations = kStepSweepCap;
     return p;
   }();
   int max_contacts = 8192;

@@ -101,7 +101,7 @@ int TotalSweeps(const Trace& t) {
 TEST(Scale, EveryMassTimesKGivesTheSameTrajectoryAndSweeps) {
   const int steps = 400;  // the landing and 0.35 s at rest
   const Trace base = RunStack(1.0, 1.0, EStopMeasure::Scaled, steps, 0);
-  ASSERT_LT(TotalSweeps(base), 100 * steps / 2);  // not every step at the cap
+  ASSERT_LT(TotalSweeps(base), kStepSweepCap * steps / 2);  // not every step at the cap
   for (const double k : {8.0, 1024.0}) {
     const Trace t = RunStack(1.0, k, EStopMeasure::Scaled, steps, 0);
     EXPECT_EQ(t.force, k * base.force) << k;
