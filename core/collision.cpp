@@ -1,6 +1,7 @@
 #include "core/collision.h"
 
 #include <algorithm>
+#include <optional>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -179,13 +180,57 @@ void PromoteNext(PairCache* c) {
   if (!c->wide.valid) c->wide_limit = 0;
 }
 
+// One-pass contact: for each leaf of the querying body (a's when query_a) that the
+// pairs reach, its coupled leaf on the surface body (the overlapping leaf whose centre
+// is nearest) and its lift (its lowest height above the overlapping leaves' slabs),
+// what the two-sided gathering in CollidePair gives that side, in the same order.
+// `normals`: the surface's leaf normals in the traversal's frame.
+struct SideGather {
+  bool query_a;
+  const SphereTree* ts;
+  const Vec3* normals;
+  int* bl;
+  double* bd;
+  double* lf;
+  std::vector<int>* touched;
+  SideGather(bool q, const SphereTree& t, const Vec3* n, std::vector<int>* best, std::vector<double>* best_d2,
+             std::vector<double>* lift, std::vector<int>* touched_leaves)
+      : query_a(q), ts(&t), normals(n), bl(best->data()), bd(best_d2->data()), lf(lift->data()),
+        touched(touched_leaves) {}
+  /// one overlapping leaf pair: d is a's centre minus b's, dist2 its squared norm
+  void Add(int leaf_a, int leaf_b, double dist2, const Vec3& d) const {
+    // b's height above a's slab is -d . n_a
+    const int lq = query_a ? leaf_a : leaf_b;
+    const int ls = query_a ? leaf_b : leaf_a;
+    const double h = (query_a ? 1.0 : -1.0) * d.dot(normals[ls]) - ts->leaf_height(ls);
+    if (bl[lq] < 0) {
+      touched->push_back(lq);
+      lf[lq] = h;
+      bl[lq] = ls;
+      bd[lq] = dist2;
+      return;
+    }
+    lf[lq] = std::min(lf[lq], h);
+    if (dist2 < bd[lq]) {
+      bl[lq] = ls;
+      bd[lq] = dist2;
+    }
+  }
+};
+
+void GatherSide(const std::vector<CollisionScratch::LeafPair>& pairs, const SideGather& g) {
+  for (const CollisionScratch::LeafPair& p : pairs) g.Add(p.leaf_a, p.leaf_b, p.dist2, p.d);
+}
+
 // The overlapping leaf pairs of two trees (into s->pairs, as TraverseTrees gives
 // them) from their PairCache: served from its list while the motion stays within
 // the list's margin, else the list refilled from the wide list, or rebuilt by a
-// traversal; then a slice of the next wide list.
-void CachedLeafPairs(const TraversalNode* na, const TraversalNode* nb, const SphereTree& ta, const SphereTree& tb,
+// traversal; then a slice of the next wide list. With a one-pass `gather`, pairs
+// served from the list go straight to it instead of into s->pairs (a held grasp
+// serves tens of thousands a step, not written out and read back); returns true then.
+bool CachedLeafPairs(const TraversalNode* na, const TraversalNode* nb, const SphereTree& ta, const SphereTree& tb,
                      bool in_b, const Pose& moved_pose, const CollisionParams& params, PairCache* cache,
-                     CollisionScratch* s, CollisionStats* local) {
+                     CollisionScratch* s, CollisionStats* local, const SideGather* gather) {
   const double thr = params.contact_threshold;
   const double extent = (in_b ? ta : tb).center_extent();
   const double radii = ta.mean_leaf_radius() + tb.mean_leaf_radius();
@@ -202,6 +247,7 @@ void CachedLeafPairs(const TraversalNode* na, const TraversalNode* nb, const Sph
   };
   auto used_list = [&](const PairList& l) { return used(l.moved, l.drift_a, l.drift_b); };
   const bool wide_on = cache->wide_limit > 0 && wide_margin > margin;
+  bool fused = false;
   // the next wide list's nodes: the moved tree's as they were when it began
   const TraversalNode* next_a = in_b ? cache->next_nodes.data() : na;
   const TraversalNode* next_b = in_b ? nb : cache->next_nodes.data();
@@ -209,17 +255,24 @@ void CachedLeafPairs(const TraversalNode* na, const TraversalNode* nb, const Sph
   if (cache->valid && used(cache->moved, cache->drift_a, cache->drift_b) <= cache->margin) {
     // served: every pair a traversal would find now is in the list
     s->pairs.clear();
+    int overlapping = 0;
     for (const auto& [ia, ib] : cache->pairs) {
       const TraversalNode& x = na[ia];
       const TraversalNode& y = nb[ib];
       const double reach = x.radius + y.radius + thr;
       const Vec3 d = x.center - y.center;
       const double d2 = d.squaredNorm();
-      if (d2 <= reach * reach) s->pairs.push_back({x.leaf(), y.leaf(), d2, d});
+      if (d2 > reach * reach) continue;
+      ++overlapping;
+      if (gather)
+        gather->Add(x.leaf(), y.leaf(), d2, d);
+      else
+        s->pairs.push_back({x.leaf(), y.leaf(), d2, d});
     }
     local->node_pairs += static_cast<int>(cache->pairs.size());
-    local->leaf_pairs += static_cast<int>(s->pairs.size());
+    local->leaf_pairs += overlapping;
     ++local->cache_hits;
+    fused = gather != nullptr;
   } else {
     bool from_wide = false, traversed = false;
     if (wide_on) {
@@ -347,38 +400,7 @@ void CachedLeafPairs(const TraversalNode* na, const TraversalNode* nb, const Sph
       if (cache->next_stack.empty()) PromoteNext(cache);
     }
   }
-}
-
-// One-pass contact: for each leaf of the querying body (a's when query_a) that the
-// pairs reach, its coupled leaf on the surface body (the overlapping leaf whose centre
-// is nearest) and its lift (its lowest height above the overlapping leaves' slabs),
-// what the two-sided gathering in CollidePair gives that side, in the same order.
-// `normals`: the surface's leaf normals in the traversal's frame.
-void GatherSide(const std::vector<CollisionScratch::LeafPair>& pairs, bool query_a, const SphereTree& ts,
-                const Vec3* normals, std::vector<int>* best, std::vector<double>* best_d2, std::vector<double>* lift,
-                std::vector<int>* touched) {
-  // the offset d is a's centre minus b's: b's height above a's slab is -d . n_a
-  const double sign = query_a ? 1.0 : -1.0;
-  int* bl = best->data();
-  double* bd = best_d2->data();
-  double* lf = lift->data();
-  for (const CollisionScratch::LeafPair& p : pairs) {
-    const int lq = query_a ? p.leaf_a : p.leaf_b;
-    const int ls = query_a ? p.leaf_b : p.leaf_a;
-    const double h = sign * p.d.dot(normals[ls]) - ts.leaf_height(ls);
-    if (bl[lq] < 0) {
-      touched->push_back(lq);
-      lf[lq] = h;
-      bl[lq] = ls;
-      bd[lq] = p.dist2;
-      continue;
-    }
-    lf[lq] = std::min(lf[lq], h);
-    if (p.dist2 < bd[lq]) {
-      bl[lq] = ls;
-      bd[lq] = p.dist2;
-    }
-  }
+  return fused;
 }
 
 // the leaf whose centre is nearest to p, by greedy descent (exact enough for a re-projection)
@@ -1045,10 +1067,6 @@ void CollidePair(int id_a, const CollisionShape& a, const Pose& pose_a, int id_b
   const SphereTree& ta = *a.tree;
   const SphereTree& tb = *b.tree;
   const double thr = params.contact_threshold;
-  if (cache && cache->limit > 0 && params.pair_cache_margin > 0.0)
-    CachedLeafPairs(na, nb, ta, tb, in_b, moved_pose, params, cache, s, &local);
-  else
-    TraverseTrees(na, ta.span_end(), ta.root(), nb, tb.span_end(), tb.root(), thr, s, &local);
 
   // closest overlapping leaf on the other body, for every leaf of each body, and
   // how high each leaf centre stands above the other body's overlapping leaf slabs
@@ -1061,6 +1079,7 @@ void CollidePair(int id_a, const CollisionShape& a, const Pose& pose_a, int id_b
   // a body that does not emit contacts only receives the other's control points
   const bool emit_a = a.emits_contacts || !b.emits_contacts;
   const bool emit_b = b.emits_contacts || !a.emits_contacts;
+  std::optional<SideGather> one_pass;
   if (!(emit_a && emit_b)) {
     // one-pass: only the emitting side's leaves are gathered, against the other's
     // normals in the traversal's frame (the moved tree's turned once, all of them)
@@ -1072,10 +1091,17 @@ void CollidePair(int id_a, const CollisionShape& a, const Pose& pose_a, int id_b
       normals = turned;
     }
     if (emit_a)
-      GatherSide(s->pairs, true, ts, normals, &s->best_a, &s->best_a_d2, &s->lift_a, &s->touched_a);
+      one_pass.emplace(true, ts, normals, &s->best_a, &s->best_a_d2, &s->lift_a, &s->touched_a);
     else
-      GatherSide(s->pairs, false, ts, normals, &s->best_b, &s->best_b_d2, &s->lift_b, &s->touched_b);
+      one_pass.emplace(false, ts, normals, &s->best_b, &s->best_b_d2, &s->lift_b, &s->touched_b);
   }
+  const SideGather* gather = one_pass ? &*one_pass : nullptr;
+  bool gathered = false;
+  if (cache && cache->limit > 0 && params.pair_cache_margin > 0.0)
+    gathered = CachedLeafPairs(na, nb, ta, tb, in_b, moved_pose, params, cache, s, &local, gather);
+  else
+    TraverseTrees(na, ta.span_end(), ta.root(), nb, tb.span_end(), tb.root(), thr, s, &local);
+  if (gather && !gathered) GatherSide(s->pairs, *gather);
   // two-pass: both sides at once
   if (emit_a && emit_b) for (const CollisionScratch::LeafPair& p : s->pairs) {
     double ha, hb;
