@@ -19,11 +19,19 @@
 #include "session/tracked_sim.h"
 #include "session/run_report.h"
 #include "session/tracker_app.h"
+#include "tracking/hand_mapping.h"
 #include "tracking/session_log.h"
 #include "view/live_view.h"
 
 namespace gs::app {
 namespace {
+
+// what the session's datagrams carried for the scene, as live says it
+std::string ReplayTallyText(const TrackedSim& sim) {
+  const tracking::TrackerConfig& c = sim.config();
+  const std::string needs = c.source == tracking::ESource::Hand ? tracking::MissingLabel(c, -1) : "every tracked body";
+  return TallyText(sim.tally(), needs, tracking::MissingLabel(c, sim.tally().missing_code));
+}
 
 struct ReplayOptions {
   std::vector<std::string> args;  // [SCENE] LOG
@@ -278,6 +286,7 @@ int Replay(const ReplayOptions& opt) {
     std::printf("replay: %lld steps in %.2f s wall (%.2fx real time); %zu datagrams applied; parse errors %s\n",
                 static_cast<long long>(step), wall, wall > 0 ? w.time / wall : 0.0, next,
                 FormatParseErrors(ps).c_str());
+    std::printf("replay: %s\n", ReplayTallyText(*sim).c_str());
     if (tracked >= 0)
       std::printf("replay: %s highest rise %.2f mm, held 2 cm up for %.3f s, final (%.4f, %.4f, %.4f) m%s\n",
                   w.bodies[tracked].name.c_str(), 1e3 * max_rise, lifted_time, w.bodies[tracked].pose.t.x(),
@@ -307,7 +316,9 @@ int Replay(const ReplayOptions& opt) {
      << ",\"parse_errors_by_category\":" << ParseErrorsJson(ps) << ",\"rejected_steps\":" << w.rejected_steps
      << ",\"pass_throughs_let\":" << w.pass_throughs_let
      << ",\"unconverged_steps\":" << w.unconverged_steps << ",\"max_coupling_force_N\":" << max_coupling
-     << ",\"max_penetration_m\":" << max_penetration << ",\"state_hash\":\"" << StateHashHex(w) << "\"";
+     << ",\"max_penetration_m\":" << max_penetration << ",\"state_hash\":\"" << StateHashHex(w) << "\""
+     << ",\"good_datagrams\":" << sim->tally().good << ",\"not_dtrack_datagrams\":" << sim->tally().not_dtrack
+     << ",\"missing_datagrams\":" << sim->tally().missing << ",\"other_side_datagrams\":" << sim->tally().other_side;
   if (tracked >= 0)
     js << ",\"tracked_body\":\"" << w.bodies[tracked].name << "\",\"max_rise_m\":" << max_rise
        << ",\"lifted_s\":" << lifted_time << ",\"lifted\":" << (lifted ? "true" : "false") << ",\"final_position_m\":["
@@ -324,6 +335,13 @@ int Replay(const ReplayOptions& opt) {
   }
   if (opt.json) std::printf("%s\n", js.str().c_str());
   if (interrupted) return kExitInterrupted;
+  // a session that never drove the scene is no replay of it (the outputs are written all the
+  // same); judged on the whole session only (a --duration may stop before its good datagrams)
+  const std::string undriven = NothingDrivenText(sim->tally(), sim->config());
+  if (!undriven.empty() && next == summary.datagrams) {
+    std::fprintf(stderr, "replay: %s: %s\n", log_path.c_str(), undriven.c_str());
+    return kExitBadInput;
+  }
   return frames_ok ? kExitOk : kExitFailure;
 }
 
@@ -366,7 +384,8 @@ void AddReplayCommand(CLI::App& app, int* exit_code) {
                  {kExitFailure, "an output file or the video could not be written"},
                  {kExitUsage, "bad command line, or a render option that cannot be met (odd --size for --video, no "
                               "ffmpeg)"},
-                 {kExitBadInput, "the scene or the session log was refused (or the log holds no datagrams)"},
+                 {kExitBadInput, "the scene or the session log was refused (or the log holds no datagrams, or none of them "
+                                "drove the scene: the outputs are written, and the message says what they lacked)"},
                  {kExitInterrupted, "interrupted (Ctrl-C or SIGTERM): the outputs up to then are written"}});
   cmd->callback([opt, exit_code]() { *exit_code = Replay(*opt); });
 }

@@ -183,15 +183,14 @@ bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::str
   std::vector<std::string> missing_labels;
   for (int code = -1; code < static_cast<int>(cfg.fingertips.size()); ++code)
     missing_labels.push_back(tracking::MissingLabel(cfg, code));
-  stats->needs = cfg.source == tracking::ESource::Hand ? missing_labels[0] : std::string("bodies");
-  for (size_t i = 0; cfg.source == tracking::ESource::Bodies && i < cfg.fingertips.size(); ++i)
-    stats->needs += (i ? ", " : " ") + std::to_string(cfg.fingertips[i].body_id);
+  stats->needs = tracking::NeedsLabel(cfg);
 
   // receiver thread: parse, map, hand over the newest sample
   tracking::LatestMailbox<tracking::TargetSample> samples;
   tracking::DTrackParser parser;
   tracking::DTrackFrame frame;
-  std::atomic<uint64_t> datagrams{0}, parse_errors{0}, bad_datagrams{0}, good{0}, not_dtrack{0}, missing{0};
+  std::atomic<uint64_t> datagrams{0}, parse_errors{0}, bad_datagrams{0}, good{0}, not_dtrack{0}, missing{0},
+      other_side{0};
   std::atomic<int64_t> first_ns{-1}, last_ns{-1}, first_good_ns{-1}, last_good_ns{-1};
   std::atomic<int> missing_code{-1};
   tracking::TargetSample rx_sample;
@@ -225,6 +224,7 @@ bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::str
       case tracking::ECarries::Missing:
         missing_code = code;
         missing.fetch_add(1);
+        if (tracking::CarriesOtherSide(frame, cfg)) other_side.fetch_add(1);
         break;
     }
   });
@@ -441,6 +441,8 @@ bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::str
   stats->good_datagrams = good.load();
   stats->not_dtrack = not_dtrack.load();
   stats->missing = missing.load();
+  stats->other_side = other_side.load();
+  stats->missing_code = missing_code.load();
   const double good_span = 1e-9 * static_cast<double>(last_good_ns.load() - first_good_ns.load());
   stats->good_hz = stats->good_datagrams > 1 && good_span > 0 ? static_cast<double>(stats->good_datagrams - 1) / good_span : 0.0;
   stats->foreign_messages = rx.stats().foreign_messages.load();

@@ -64,6 +64,8 @@ struct LiveStats {
   /// datagrams carrying every tracked object the scene needs (tracking::JudgeFrame), their
   /// rate as tracker_hz's, and the others: not DTrack at all, or without what is needed
   uint64_t good_datagrams = 0, not_dtrack = 0, missing = 0;
+  uint64_t other_side = 0;      ///< of the missing, with the scene's hand of the other side
+  int missing_code = -1;        ///< what the last missing one lacked first (tracking::MissingLabel)
   double good_hz = 0.0;
   std::string needs;            ///< what a good datagram carries: "hand 0", "bodies 1, 2"
   uint64_t foreign_messages = 0;  ///< LCM input: messages on the channel of another type

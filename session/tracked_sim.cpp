@@ -2,6 +2,7 @@
 
 #include <cstdio>
 
+#include "tracking/hand_mapping.h"
 #include "tracking/synthetic_hand.h"
 
 namespace gs::app {
@@ -113,6 +114,46 @@ void TrackedSim::Ingest(const char* data, size_t size, bool truncated, tracking:
   }
   MapFrame(frame_, scene_->tracker, out);
   out->parse_errors = errors;
+  ++tally_.datagrams;
+  int code = -1;
+  switch (tracking::JudgeFrame(frame_, errors, scene_->tracker, *out, &code)) {
+    case tracking::ECarries::Good: ++tally_.good; break;
+    case tracking::ECarries::NotDTrack: ++tally_.not_dtrack; break;
+    case tracking::ECarries::Missing:
+      ++tally_.missing;
+      tally_.missing_code = code;
+      if (tracking::CarriesOtherSide(frame_, scene_->tracker)) ++tally_.other_side;
+      break;
+  }
+}
+
+std::string TallyText(const DatagramTally& t, const std::string& needs, const std::string& lacked) {
+  char buf[512];
+  std::snprintf(buf, sizeof buf, "good datagrams (carrying %s, tracked): %llu of %llu; %llu not DTrack, %llu without %s",
+                needs.c_str(), static_cast<unsigned long long>(t.good), static_cast<unsigned long long>(t.datagrams),
+                static_cast<unsigned long long>(t.not_dtrack), static_cast<unsigned long long>(t.missing),
+                lacked.c_str());
+  std::string s = buf;
+  if (t.other_side)
+    s += " (" + std::to_string(t.other_side) + " with the hand of the other side)";
+  return s;
+}
+
+std::string NothingDrivenText(const DatagramTally& t, const tracking::TrackerConfig& c) {
+  if (t.good > 0 || t.datagrams == 0) return "";
+  std::string s = "none of the " + std::to_string(t.datagrams) + " datagrams carries " +
+                  tracking::MissingLabel(c, -1) + " with every target tracked, so the scene was never driven";
+  if (t.other_side > 0) {
+    const bool right = c.hand_side == 1;
+    s += "; " + std::to_string(t.other_side) + " carry hand " + std::to_string(c.hand_id) + " as a " +
+         (right ? "left" : "right") + " hand, where the scene's hand has `side: " + (right ? "right" : "left") +
+         "` (set `side: " + (right ? "left" : "right") + "` to drive it with this input)";
+  } else if (t.missing > 0) {
+    s += "; they lack " + tracking::MissingLabel(c, t.missing_code);
+  } else {
+    s += "; none is DTrack";
+  }
+  return s;
 }
 
 void TrackedSim::UseThreads(int threads) {

@@ -30,6 +30,26 @@ SizingFeed SyntheticSizing();
 /// *error naming the scene's line and what was wrong with the datagrams.
 bool SizeTrackedHand(Scene* s, const SizingFeed& feed, std::string* note, std::string* error);
 
+/// What the datagrams given to TrackedSim::Ingest carried for the scene: the
+/// judgement live makes of every datagram it receives (tracking::JudgeFrame).
+struct DatagramTally {
+  uint64_t datagrams = 0;
+  uint64_t good = 0;        ///< every target the scene needs, tracked
+  uint64_t not_dtrack = 0;  ///< no DTrack line at all
+  uint64_t missing = 0;     ///< DTrack without something the scene needs
+  uint64_t other_side = 0;  ///< of those, with the scene's hand of the other side (tracking::CarriesOtherSide)
+  int missing_code = -1;    ///< what the last of them lacked first (tracking::MissingLabel)
+};
+
+/// "good datagrams (carrying hand 0 (right), tracked): 570 of 581; 0 not DTrack, 11 without
+/// finger 2 of hand 0": the tally in words, as replay and live print it (`needs`: what a
+/// good datagram carries; `lacked`: what the missing ones lacked).
+std::string TallyText(const DatagramTally& t, const std::string& needs, const std::string& lacked);
+
+/// "" when some datagram drove the scene (or none came); else why none could: what they
+/// lacked, and for a hand of the other side, the scene's `side` to change.
+std::string NothingDrivenText(const DatagramTally& t, const tracking::TrackerConfig& c);
+
 class TrackedSim {
  public:
   /// Loads and builds the scene; it must have a tracker section. A hand with
@@ -47,8 +67,9 @@ class TrackedSim {
   const tracking::TargetFollower& follower() const { return follower_; }
   const tracking::DTrackParser& parser() const { return parser_; }
 
-  /// Parses one datagram and maps it to fingertip targets.
+  /// Parses one datagram, maps it to fingertip targets and tallies what it carried.
   void Ingest(const char* data, size_t size, bool truncated, tracking::TargetSample* out);
+  const DatagramTally& tally() const { return tally_; }
 
   /// Pushes a sample (applied from the current simulated time).
   void Push(const tracking::TargetSample& s) { follower_.Push(s, world().time); }
@@ -71,6 +92,7 @@ class TrackedSim {
   std::string sizing_note_;
   tracking::DTrackParser parser_;
   tracking::DTrackFrame frame_;
+  DatagramTally tally_;
   tracking::TargetFollower follower_;
 };
 

@@ -108,6 +108,19 @@ ECarries JudgeFrame(const DTrackFrame& frame, int errors, const TrackerConfig& c
   return ECarries::Good;
 }
 
+std::string NeedsLabel(const TrackerConfig& c) {
+  if (c.source == ESource::Hand) return MissingLabel(c, -1);
+  std::string s = "bodies";
+  for (size_t i = 0; i < c.fingertips.size(); ++i) s += (i ? ", " : " ") + std::to_string(c.fingertips[i].body_id);
+  return s;
+}
+
+bool CarriesOtherSide(const DTrackFrame& frame, const TrackerConfig& c) {
+  if (c.source != ESource::Hand || c.hand_side < 0) return false;
+  const Hand* hand = frame.FindHand(c.hand_id);
+  return hand && hand->right != (c.hand_side == 1);
+}
+
 std::string MissingLabel(const TrackerConfig& c, int missing_code) {
   if (c.source == ESource::Hand) {
     const std::string hand = "hand " + std::to_string(c.hand_id);

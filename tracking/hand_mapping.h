@@ -59,6 +59,14 @@ enum class ECarries {
 ECarries JudgeFrame(const DTrackFrame& frame, int errors, const TrackerConfig& c, const TargetSample& sample,
                     int* missing_code);
 
+/// What a good datagram carries for the scene: "hand 0 (right)", "bodies 1, 2".
+std::string NeedsLabel(const TrackerConfig& c);
+
+/// True when the frame holds the scene's hand (its id) but of the other side: a left
+/// glove where the scene has `side: right`, or the other way round. Such a hand
+/// drives nothing (MapFrame); the commands say so, naming the scene's `side`.
+bool CarriesOtherSide(const DTrackFrame& frame, const TrackerConfig& c);
+
 /// "hand 0", "finger 4 of hand 0", "body 3": what a missing code names.
 std::string MissingLabel(const TrackerConfig& c, int missing_code);
 

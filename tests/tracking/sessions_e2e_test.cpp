@@ -102,6 +102,38 @@ TEST(SessionsEndToEnd, WholeHandReplayWritesEachSegmentsForceOnTheBox) {
     EXPECT_NE(header.find(column), std::string::npos) << column << " in " << header;
 }
 
+// a session of the other hand (a right glove's log in a scene with `side: left`) drives
+// nothing: replay says so, names the key to change, and still writes its outputs
+TEST(SessionsEndToEnd, ReplayOfTheOtherHandSaysNothingWasDriven) {
+  const std::string dir = test::TempDir("e2e_other_side");
+  const std::string src = GRASPSIM_SOURCE_DIR;
+  std::string scene = test::ReadFile(src + "/config/whole_hand_power_grasp.yaml");
+  const size_t at = scene.find("side: right");
+  ASSERT_NE(at, std::string::npos);
+  scene.replace(at, 11, "side: left");
+  std::ofstream(dir + "/left.yaml") << scene;
+  const std::string log = src + "/assets/whole_hand_power_grasp.lcmlog";
+  test::Result r = test::Run(Binary() + " replay " + dir + "/left.yaml " + log + " --quiet --out " + dir + "/out");
+  EXPECT_EQ(r.code, 3) << r.output;
+  EXPECT_NE(r.output.find("good datagrams (carrying hand 0 (left), tracked): 0 of"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("carry hand 0 as a right hand, where the scene's hand has `side: left` (set `side: right`"),
+            std::string::npos)
+      << r.output;
+  const std::string summary = test::ReadFile(dir + "/out/summary.json");
+  EXPECT_NE(summary.find("\"good_datagrams\":0,"), std::string::npos) << summary;
+  EXPECT_EQ(summary.find("\"other_side_datagrams\":0"), std::string::npos) << summary;
+  // cut short by --duration, the session is not judged whole: the tally alone
+  r = test::Run(Binary() + " replay " + dir + "/left.yaml " + log + " --duration 0.3 --quiet");
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("good datagrams (carrying hand 0 (left), tracked): 0 of"), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("never driven"), std::string::npos) << r.output;
+  // the right scene: every datagram drives it
+  r = test::Run(Binary() + " replay " + src + "/config/whole_hand_power_grasp.yaml " + log + " --duration 0.3 --json");
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("\"missing_datagrams\":0,\"other_side_datagrams\":0"), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("\"good_datagrams\":0,"), std::string::npos) << r.output;
+}
+
 TEST(SessionsEndToEnd, ReplayRefusesBadInputWithAMessage) {
   const std::string dir = test::TempDir("e2e_bad");
   test::Result r = test::Run(Binary() + " replay " + dir + "/missing.lcmlog");

@@ -568,6 +568,9 @@ TEST(WholeHand, BadFingerBlocksLeaveTheirSegmentsInvalidAndNeverNaN) {
   EXPECT_EQ(JudgeFrame(m.frame, 0, m.scene.tracker, m.sample, &code), ECarries::Missing);
   EXPECT_EQ(code, -1);
   EXPECT_EQ(MissingLabel(m.scene.tracker, code), "hand 0 (right)");
+  EXPECT_TRUE(CarriesOtherSide(m.frame, m.scene.tracker));
+  m.frame = good;
+  EXPECT_FALSE(CarriesOtherSide(m.frame, m.scene.tracker));
 }
 
 std::string WaitForText(const std::string& file, const std::string& text) {
