@@ -480,7 +480,10 @@ void ReadDeformation(MapReader& parent, DeformationParams* d) {
   if (!m.ok()) return;
   std::string model = "rigid";
   m.Choice("model", &model, {"rigid", "gaussian", "boussinesq"}, true);
-  if (model == "gaussian") {
+  if (model == "rigid") {
+    // over a default that deforms (the tracked hand's skin), not left to it
+    d->model = EDeformation::Rigid;
+  } else if (model == "gaussian") {
     d->model = EDeformation::Gaussian;
     m.Number("stiffness_N_m", &d->stiffness, 0, kInf, true, true);
     m.Number("damping_N_s_m", &d->damping, 0, kInf, false);

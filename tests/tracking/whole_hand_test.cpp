@@ -116,6 +116,28 @@ TEST(WholeHand, SceneMakesOneBodyPerSegmentAndKeepsTheHandsSegmentsApart) {
   EXPECT_NE(error.find("start_flexion_rad"), std::string::npos) << error;  // what to change in a hand
 }
 
+// the hand's skin as the scene says: its default deforms (Gaussian, 300 N/m), and
+// `model: rigid` makes every segment rigid instead of being left at that default
+TEST(WholeHand, TheHandsDeformationModelIsTheScenes) {
+  const std::string skin = "  deformation:\n    model: gaussian\n    stiffness_N_m: 300\n    damping_N_s_m: 1\n"
+                           "    influence_radius_m: 0.003\n";
+  ASSERT_NE(SceneText().find(skin), std::string::npos);
+  const std::pair<const char*, EDeformation> cases[] = {
+      {"  deformation: {model: rigid}\n", EDeformation::Rigid},
+      {"  deformation: {model: boussinesq, young_modulus_Pa: 2.0e5, poisson_ratio: 0.45}\n", EDeformation::Boussinesq},
+      {"", EDeformation::Gaussian}};
+  for (const auto& [text, model] : cases) {
+    app::BuiltScene built;
+    std::string error;
+    ASSERT_TRUE(Build(Replace(SceneText(), skin, text), &built, &error)) << error;
+    for (const char* name : {"palm", "thumb_outer", "index_inner", "little_middle"}) {
+      const Body& b = built.world.bodies[BodyIndex(built.world, name)];
+      EXPECT_EQ(b.deform.enabled(), model != EDeformation::Rigid) << text << name;
+      EXPECT_EQ(b.deform.params().model, model) << text << name;
+    }
+  }
+}
+
 TEST(WholeHand, LeftHandIsTheRightOneMirrored) {
   app::BuiltScene right, left;
   std::string error;
