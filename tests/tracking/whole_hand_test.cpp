@@ -601,6 +601,34 @@ std::string WaitForText(const std::string& file, const std::string& text) {
   return test::ReadFile(file);
 }
 
+// live judges the datagrams as replay does: a left glove's datagrams in the right
+// hand's scene are said to drive nothing, with the scene's side: to change
+TEST(WholeHand, LiveSaysAGloveOfTheOtherSideDroveNothing) {
+  const std::string dir = test::TempDir("other_side_live");
+  const std::string scene = dir + "/right.yaml", log = dir + "/left.lcmlog", out = dir + "/live.txt";
+  std::ofstream(scene) << SceneText();
+  WriteSession(log, std::vector<std::string>(100, LeftHanded(SizedDatagram(1.0))));
+  const int port = test::FreeUdpPort();
+  test::Child live({test::Binary(), "live", scene, "--port", std::to_string(port), "--publish-rate", "0",
+                    "--rt-priority", "0"},
+                   out);
+  ASSERT_TRUE(live.started());
+  ASSERT_NE(WaitForText(out, "live: listening on").find("live: listening on"), std::string::npos)
+      << test::ReadFile(out);
+  const test::Result send =
+      test::Run(test::Binary() + " send " + log + " --port " + std::to_string(port) + " --delay 0");
+  ASSERT_EQ(send.code, 0) << send.output;
+  // the tracker's missing event says the datagrams came and lacked the hand
+  ASSERT_NE(WaitForText(out, "absent from").find("absent from"), std::string::npos) << test::ReadFile(out);
+  live.Signal(SIGINT);
+  live.Wait();
+  const std::string text = test::ReadFile(out);
+  EXPECT_NE(text.find("live: none of the"), std::string::npos) << text;
+  EXPECT_NE(text.find("carry hand 0 as a left hand, where the scene's hand has `side: right` (set `side: left`"),
+            std::string::npos)
+      << text;
+}
+
 TEST(WholeHand, LiveWaitsForTheTrackerToSizeTheHandAndStopsOnCtrlC) {
   const std::string dir = test::TempDir("tracker_sizes_live");
   const std::string scene = dir + "/sized.yaml", log = dir + "/session.lcmlog", out = dir + "/live.txt";
