@@ -234,18 +234,9 @@ int Live(const LiveCmd& c) {
               st.foreign_messages ? ("; " + std::to_string(st.foreign_messages) +
                                      " LCM messages of another type on the channel").c_str()
                                   : "");
-  {
-    // the same judgement as replay's: input that never drove the scene is said, with what to change
-    DatagramTally t;
-    t.datagrams = st.datagrams;
-    t.good = st.good_datagrams;
-    t.not_dtrack = st.not_dtrack;
-    t.missing = st.missing;
-    t.other_side = st.other_side;
-    t.missing_code = st.missing_code;
-    const std::string undriven = NothingDrivenText(t, sim->config());
-    if (!undriven.empty()) std::fprintf(stderr, "live: %s\n", undriven.c_str());
-  }
+  // the same judgement as replay's: input that never drove the scene is said, with what to change
+  const std::string undriven = NothingDrivenText(st.Tally(), sim->config());
+  if (!undriven.empty()) std::fprintf(stderr, "live: %s\n", undriven.c_str());
   if (sim->scene().tracked_body >= 0)
     std::printf("live: %s highest rise %.2f mm%s; up to %d contacts\n",
                 w.bodies[sim->scene().tracked_body].name.c_str(), 1e3 * st.max_rise_m,

@@ -91,6 +91,17 @@ struct LiveStats {
   int64_t skipped_solves = 0;     ///< of those, steps with no time left for a sweep (the last forces kept)
   double residual_max = 0.0;      ///< largest solver error of a step that swept
   double sim_rate_hz() const { return wall_s > 0 ? static_cast<double>(steps) / wall_s : 0.0; }
+  /// the datagrams judged as replay judges them (TrackedSim::tally)
+  DatagramTally Tally() const {
+    DatagramTally t;
+    t.datagrams = datagrams;
+    t.good = good_datagrams;
+    t.not_dtrack = not_dtrack;
+    t.missing = missing;
+    t.other_side = other_side;
+    t.missing_code = missing_code;
+    return t;
+  }
 };
 
 class FrameRecorder;
