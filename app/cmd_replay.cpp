@@ -29,8 +29,7 @@ namespace {
 // what the session's datagrams carried for the scene, as live says it
 std::string ReplayTallyText(const TrackedSim& sim) {
   const tracking::TrackerConfig& c = sim.config();
-  const std::string needs = c.source == tracking::ESource::Hand ? tracking::MissingLabel(c, -1) : "every tracked body";
-  return TallyText(sim.tally(), needs, tracking::MissingLabel(c, sim.tally().missing_code));
+  return TallyText(sim.tally(), tracking::NeedsLabel(c), tracking::MissingLabel(c, sim.tally().missing_code));
 }
 
 struct ReplayOptions {

@@ -65,9 +65,9 @@ const char* GlFinger(const HandFinger& f, const TrackerConfig& c, TrackedFinger*
 void MapFrame(const DTrackFrame& frame, const TrackerConfig& c, TargetSample* out) {
   out->frame = frame.frame;
   out->count = std::min(static_cast<int>(c.fingertips.size()), TargetSample::kMaxTips);
-  const Hand* hand = c.source == ESource::Hand ? frame.FindHand(c.hand_id) : nullptr;
   // a hand of the other side (a left glove where the scene has a right hand) drives nothing
-  if (hand && c.hand_side >= 0 && hand->right != (c.hand_side == 1)) hand = nullptr;
+  const Hand* hand =
+      c.source == ESource::Hand && !CarriesOtherSide(frame, c) ? frame.FindHand(c.hand_id) : nullptr;
   for (int i = 0; i < out->count; ++i) {
     const FingertipMap& m = c.fingertips[i];
     out->valid[i] = false;
@@ -94,8 +94,7 @@ ECarries JudgeFrame(const DTrackFrame& frame, int errors, const TrackerConfig& c
                     int* missing_code) {
   *missing_code = 0;
   if (frame.present == 0 && errors == 0) return ECarries::NotDTrack;
-  const Hand* hand = c.source == ESource::Hand ? frame.FindHand(c.hand_id) : nullptr;
-  if (c.source == ESource::Hand && (!hand || (c.hand_side >= 0 && hand->right != (c.hand_side == 1)))) {
+  if (c.source == ESource::Hand && (!frame.FindHand(c.hand_id) || CarriesOtherSide(frame, c))) {
     *missing_code = -1;
     return ECarries::Missing;
   }
