@@ -67,6 +67,9 @@ inline double ForceToGap(const Mat3& W) {
   return (w > 0.0 && std::isfinite(w)) ? w : 0.0;
 }
 
+/// Anderson acceleration's largest depth (NsgsParams::anderson_depth).
+constexpr int kAndersonMaxDepth = 8;
+
 struct NsgsParams {
   double tolerance = 1e-6;          ///< on the stopping measure (`measure`)
   EStopMeasure measure = EStopMeasure::Siconos;
@@ -112,6 +115,15 @@ struct NsgsParams {
   /// same error measure. Costs two copies of r and one more pass over the contacts.
   /// Off for the rest of the solve once it stops paying (MomentumWatch below).
   bool conjugate = false;
+  /// Anderson acceleration (0: off): after a sweep that leaves the forces
+  /// unconverged, r moves to the combination of the last `anderson_depth` + 1 sweeps'
+  /// outputs whose sweep changes (in gap units under the scaled measure) combine to
+  /// the least norm, projected back on each cone (AndersonStep below). Dense
+  /// contacts under a wide skin couple their neighbours at up to 0.9 of their own
+  /// compliance (W's condition near 1e5), where plain sweeps gain about 10 % a sweep.
+  /// The local solves stay exact and the checked forces are a sweep's own, as with
+  /// `conjugate` (which it replaces when both are set).
+  int anderson_depth = 0;
 };
 
 struct NsgsResult {
@@ -182,7 +194,21 @@ struct NsgsScratch {
   std::vector<Vec3> r_old, r_base, r_best;        ///< extrapolation only
   std::vector<Vec3> r_prev, direction;            ///< conjugate directions only
   std::vector<double> angle_base, angle_best;     ///< extrapolation only
-  void Reserve(int n) { angle.reserve(n); }
+  /// Anderson acceleration only: the last sweep's output g and change f, and
+  /// anderson_depth columns of their differences (column k at [k * n, (k + 1) * n))
+  std::vector<Vec3> g_last, f_last, d_g, d_f;
+  /// Room for n contacts, with Anderson acceleration of this depth: no solve of up
+  /// to n contacts allocates.
+  void Reserve(int n, int anderson_depth = 0) {
+    angle.reserve(n);
+    if (anderson_depth <= 0) return;
+    const size_t m = static_cast<size_t>(std::min(anderson_depth, kAndersonMaxDepth));
+    r_prev.reserve(n);
+    g_last.reserve(n);
+    f_last.reserve(n);
+    d_g.reserve(m * n);
+    d_f.reserve(m * n);
+  }
 };
 
 inline double SiconosRatio(double num, double nq, double nr, double nu) {
@@ -412,6 +438,166 @@ void ConjugateStep(Op& op, Vec3* r, NsgsScratch& s, int n, double* last) {
   }
 }
 
+// Anderson acceleration (NsgsParams::anderson_depth; Walker and Ni 2011, type II).
+// The sweep is a map x -> g(x); its change f = S (g - x) (S: the forces as gaps under
+// the scaled measure) vanishes at a solution. With the differences of the last m
+// outputs and changes as columns dG, dF, the next forces are g - dG gamma with gamma
+// minimising |f - dF gamma| (normal equations of at most m x m, regularised), each
+// contact's projected on its cone. A sweep from a combination whose estimate rose
+// above its predecessor's clears the history (the combination did not pay), and
+// once kAndersonWindow sweeps pass without a new lowest estimate the acceleration
+// is off for the rest of the solve (AndersonWatch): at worst the solve goes on as
+// plain Gauss-Seidel.
+class Anderson {
+ public:
+  Anderson(NsgsScratch& s, int n, int depth) : s_(s), n_(n), m_(depth) {
+    if (depth <= 0) return;
+    const size_t need = static_cast<size_t>(n) * static_cast<size_t>(depth);
+    if (s.d_g.size() < need) {
+      s.d_g.resize(need);
+      s.d_f.resize(need);
+    }
+    if (s.g_last.size() < static_cast<size_t>(n)) {
+      s.g_last.resize(n);
+      s.f_last.resize(n);
+    }
+  }
+  void Restart() {
+    cols_ = next_ = 0;
+    have_last_ = combined_ = false;
+  }
+  /// Whether the forces the last sweep started from were a combination (not a sweep's own).
+  bool combined() const { return combined_; }
+  /// After a sweep from x to r (the accumulators at r): moves r on. `scale` is the
+  /// operator's contact force-to-gap factor (1 under Siconos' measure).
+  template <class Op>
+  void Step(Op& op, Vec3* r, const Vec3* x, bool scaled) {
+    Vec3* dg = s_.d_g.data();
+    Vec3* df = s_.d_f.data();
+    combined_ = false;
+    if (have_last_) {
+      // the newest column replaces the oldest (a ring of m columns)
+      const int k = next_;
+      Vec3* cg = dg + static_cast<size_t>(k) * n_;
+      Vec3* cf = df + static_cast<size_t>(k) * n_;
+      for (int c = 0; c < n_; ++c) {
+        const Vec3 f = Scale(op, c, scaled) * (r[c] - x[c]);
+        cf[c] = f - s_.f_last[c];
+        cg[c] = r[c] - s_.g_last[c];
+        s_.f_last[c] = f;
+        s_.g_last[c] = r[c];
+      }
+      next_ = (next_ + 1) % m_;
+      cols_ = std::min(cols_ + 1, m_);
+      for (int j = 0; j < cols_; ++j) {
+        const double v = Dot(df + static_cast<size_t>(j) * n_, cf);
+        gram_(j, k) = gram_(k, j) = v;
+      }
+    } else {
+      for (int c = 0; c < n_; ++c) {
+        s_.f_last[c] = Scale(op, c, scaled) * (r[c] - x[c]);
+        s_.g_last[c] = r[c];
+      }
+      have_last_ = true;
+      return;
+    }
+    Combine(op, r, dg, df);
+  }
+
+ private:
+  static constexpr int kMax = kAndersonMaxDepth;
+  template <class Op>
+  static double Scale(const Op& op, int c, bool scaled) {
+    return scaled ? ForceToGap(op.DiagonalBlock(c)) : 1.0;
+  }
+  double Dot(const Vec3* a, const Vec3* b) const {
+    double v = 0.0;
+    for (int c = 0; c < n_; ++c) v += a[c].dot(b[c]);
+    return v;
+  }
+  template <class Op>
+  void Combine(Op& op, Vec3* r, const Vec3* dg, const Vec3* df) {
+    Eigen::Matrix<double, kMax, kMax> m = gram_;
+    Eigen::Matrix<double, kMax, 1> b = Eigen::Matrix<double, kMax, 1>::Zero();
+    double trace = 0.0;
+    for (int j = 0; j < cols_; ++j) {
+      b[j] = Dot(df + static_cast<size_t>(j) * n_, s_.f_last.data());
+      trace += m(j, j);
+    }
+    if (!(trace > 0.0) || !std::isfinite(trace)) return Restart();
+    // regularised: a column whose change in f is tiny (forces moving along W's null
+    // space, as a box's four corners share its weight) gets no weight
+    for (int j = 0; j < cols_; ++j) m(j, j) += 1e-10 * trace;
+    const auto mm = m.topLeftCorner(cols_, cols_);
+    Eigen::Matrix<double, kMax, 1> gamma = Eigen::Matrix<double, kMax, 1>::Zero();
+    SolveSmall(mm, b, &gamma);
+    if (!gamma.allFinite()) return Restart();
+    combined_ = true;
+    for (int c = 0; c < n_; ++c) {
+      Vec3 y = r[c];
+      for (int j = 0; j < cols_; ++j) y -= gamma[j] * dg[static_cast<size_t>(j) * n_ + c];
+      const Vec3 x = ProjectOntoCone(y, op.Mu(c));
+      if (!x.allFinite()) continue;
+      const Vec3 dr = x - r[c];
+      if (dr[0] != 0.0 || dr[1] != 0.0 || dr[2] != 0.0) op.ApplyDelta(c, dr);
+      r[c] = x;
+    }
+  }
+  template <class M>
+  void SolveSmall(const M& mm, const Eigen::Matrix<double, kMax, 1>& b, Eigen::Matrix<double, kMax, 1>* gamma) const {
+    // Cholesky of the regularised Gram matrix, by hand on the fixed-size storage
+    Eigen::Matrix<double, kMax, kMax> l = Eigen::Matrix<double, kMax, kMax>::Zero();
+    for (int i = 0; i < cols_; ++i)
+      for (int j = 0; j <= i; ++j) {
+        double v = mm(i, j);
+        for (int k = 0; k < j; ++k) v -= l(i, k) * l(j, k);
+        if (i == j) {
+          if (!(v > 0.0)) {
+            gamma->setConstant(NAN);
+            return;
+          }
+          l(i, i) = std::sqrt(v);
+        } else {
+          l(i, j) = v / l(j, j);
+        }
+      }
+    Eigen::Matrix<double, kMax, 1> y;
+    for (int i = 0; i < cols_; ++i) {
+      double v = b[i];
+      for (int k = 0; k < i; ++k) v -= l(i, k) * y[k];
+      y[i] = v / l(i, i);
+    }
+    for (int i = cols_ - 1; i >= 0; --i) {
+      double v = y[i];
+      for (int k = i + 1; k < cols_; ++k) v -= l(k, i) * (*gamma)[k];
+      (*gamma)[i] = v / l(i, i);
+    }
+  }
+
+  NsgsScratch& s_;
+  int n_, m_;
+  int cols_ = 0, next_ = 0;
+  bool have_last_ = false, combined_ = false;
+  Eigen::Matrix<double, kMax, kMax> gram_ = Eigen::Matrix<double, kMax, kMax>::Zero();
+};
+
+constexpr int kAndersonWindow = 100;
+
+struct AndersonWatch {
+  double lowest = std::numeric_limits<double>::infinity();
+  int lowest_at = 0;
+  bool off = false;
+  /// After sweep `sweep` with in-sweep estimate `estimate`: true while the acceleration stays on.
+  bool Pays(double estimate, int sweep) {
+    if (estimate < lowest) {
+      lowest = estimate;
+      lowest_at = sweep;
+    }
+    if (sweep - lowest_at > kAndersonWindow) off = true;
+    return !off;
+  }
+};
+
 template <class Op>
 NsgsResult SolveNsgs(Op& op, Vec3* r, const NsgsParams& p, NsgsScratch& s) {
   NsgsResult res;
@@ -430,22 +616,30 @@ NsgsResult SolveNsgs(Op& op, Vec3* r, const NsgsParams& p, NsgsScratch& s) {
   int sweep = 0;  // plain sweeps
   double last_change = 0.0;  // conjugate: the previous sweep's |dr|^2
   MomentumWatch momentum;     // conjugate: on while it pays
-  if (p.conjugate) {
-    s.r_prev.resize(std::max(s.r_prev.size(), static_cast<size_t>(n)));
-    s.direction.resize(std::max(s.direction.size(), static_cast<size_t>(n)));
-  }
+  const int depth = std::min(p.anderson_depth, kAndersonMaxDepth);
+  const bool conjugate = p.conjugate && depth <= 0;
+  if (conjugate || depth > 0) s.r_prev.resize(std::max(s.r_prev.size(), static_cast<size_t>(n)));
+  if (conjugate) s.direction.resize(std::max(s.direction.size(), static_cast<size_t>(n)));
+  Anderson anderson(s, n, depth);
+  AndersonWatch anderson_watch;
+  double last_estimate = std::numeric_limits<double>::infinity();
   while (res.iterations < p.max_iterations) {
     const bool backward = p.order == ESweepOrder::Alternating && (sweep & 1);
     NsgsSweepSums sums;
-    if (p.conjugate) std::copy(r, r + n, s.r_prev.begin());
+    if (conjugate || depth > 0) std::copy(r, r + n, s.r_prev.begin());
     const NsgsErrors estimate = NsgsSweep(op, r, p, backward, nq, s.angle.data(), &sums);
     ++sweep;
     ++res.iterations;
     // the momentum only on a sweep that will not be checked: a checked or bounded
     // error is the error of the forces the sweep left
-    if (p.conjugate && estimate.stop > p.tolerance && res.iterations < p.max_iterations &&
-        !(K > 0 && sweep % K == 0) && momentum.Pays(estimate.stop, res.iterations))
+    const bool unchecked = estimate.stop > p.tolerance && res.iterations < p.max_iterations && !(K > 0 && sweep % K == 0);
+    if (conjugate && unchecked && momentum.Pays(estimate.stop, res.iterations))
       ConjugateStep(op, r, s, n, &last_change);
+    if (depth > 0 && anderson_watch.Pays(estimate.stop, res.iterations) && unchecked) {
+      if (anderson.combined() && !(estimate.stop <= last_estimate)) anderson.Restart();
+      anderson.Step(op, r, s.r_prev.data(), p.measure == EStopMeasure::Scaled);
+    }
+    last_estimate = estimate.stop;
     if (p.accept_error_bound && estimate.stop <= p.tolerance) {
       const NsgsErrors bound = NsgsErrorBound(sums, nq, p);
       if (bound.stop <= p.tolerance) {

@@ -231,7 +231,7 @@ void World::Finalize() {
   warm_index.Reserve(params.max_contacts);
   side_inf_idx_prev.reserve(static_cast<size_t>(64) * params.max_contacts);
   side_inf_phi_prev.reserve(static_cast<size_t>(64) * params.max_contacts);
-  gs_scratch.Reserve(params.max_contacts + max_limits);
+  gs_scratch.Reserve(params.max_contacts + max_limits, params.solver.anderson_depth);
   contacts_prev.reserve(params.max_contacts);
   sleep_set.assign(n, 0);
   sleep_gravity = params.gravity;

@@ -341,11 +341,14 @@ bool Parse(const YAML::Node& root, const std::string& file, Scene* s, std::vecto
     d.Number("tolerance", &s->params.solver.tolerance, 0, 1, false, true, true);
     d.Integer("max_iterations", &it, 1, 100000, false);
     d.Number("over_relaxation", &s->params.solver.over_relaxation, 0, 2, false, true, true);
+    int64_t depth = s->params.solver.anderson_depth;
+    d.Integer("anderson_depth", &depth, 0, kAndersonMaxDepth, false);
     std::string measure = s->params.solver.measure == EStopMeasure::Siconos ? "siconos" : "scaled";
     d.Choice("stop_measure", &measure, {"scaled", "siconos"}, false);
     s->params.solver.measure = measure == "siconos" ? EStopMeasure::Siconos : EStopMeasure::Scaled;
     d.Finish();
     s->params.solver.max_iterations = static_cast<int>(it);
+    s->params.solver.anderson_depth = static_cast<int>(depth);
   }
   if (YAML::Node n = m.Raw("collision")) {
     MapReader d(n, file, "collision", errors);

@@ -159,6 +159,7 @@ TEST(SceneFile, IllPosedMechanicsAreRefusedWithTheirPosition) {
   ExpectError(std::string(kMinimal) + "gravity_m_s2: [0, 0, .inf]\n", 14, 22, "finite");
   ExpectError(std::string(kMinimal) + "solver: {tolerance: 0}\n", 14, 21, "out of range");
   ExpectError(std::string(kMinimal) + "solver: {over_relaxation: 2}\n", 14, 27, "out of range");
+  ExpectError(std::string(kMinimal) + "solver: {anderson_depth: 9}\n", 14, 26, "out of range");
   ExpectError(std::string(kMinimal) + "friction: {pairs: [{a: ball, b: table, mu: -0.2}]}\n", 14, 44, "out of range");
   ExpectError(std::string(kMinimal) + "friction: {pairs: [{a: ball, b: table, mu: .nan}]}\n", 14, 44, "finite");
   // inertia: shape, positive definiteness, a rigid body's triangle inequality, only for free inertial bodies

@@ -51,7 +51,7 @@ void BuildStack(Stack* s, double ratio, double scale, EStopMeasure measure) {
 struct Trace {
   std::vector<Vec3> x;    // both centres, step after step
   std::vector<int> sweeps;
-  double force = 0.0;     // normal force sum of the last step
+  double force = 0.0;     // vertical component of the last step's summed contact forces
 };
 
 Trace RunStack(double ratio, double scale, EStopMeasure measure, int steps, int newton_steps = 50) {
@@ -66,7 +66,9 @@ Trace RunStack(double ratio, double scale, EStopMeasure measure, int steps, int 
     t.x.push_back(s.w.bodies[s.top].pose.t);
     t.sweeps.push_back(s.w.profile.iterations);
   }
-  for (const ContactRow& r : s.w.rows) t.force += r.r[0];
+  // (in the world's frame: how the forces split into normal and tangential parts
+  // over the tilted contacts at the boxes' rounded edges is not unique)
+  for (const ContactRow& r : s.w.rows) t.force += (r.frame.transpose() * r.r).z();
   return t;
 }
 
@@ -92,9 +94,15 @@ int TotalSweeps(const Trace& t) {
 // r x 2^n): the runs must be bit-identical, which any threshold that mixes force
 // and gap units (in the stopping test, the local solver) would break. Other factors
 // round differently in the last bit: trajectories within round-off (amplified where
-// a contact flips state in the landing), and about the same sweeps (these statically
-// indeterminate contacts' forces are not unique, so a last-bit difference can move a
-// step's stop by a sweep). Mass ratio 1: the sweeps converge below the cap.
+// a contact flips state in the landing), the same load on the table, and about the
+// same sweeps. These statically indeterminate contacts' forces are not unique, and
+// the step's Anderson acceleration (core/nsgs.h) combines sweeps by a least-squares
+// fit that a last-bit difference moves, so the runs take other paths through the
+// forces the tolerance accepts: sweeps within 14 % (5 % with plain sweeps), the
+// vertical force within 3e-7, while the sum of the contacts' normal components
+// differs by 7e-4 (6e-5 with plain sweeps): the normals at the rounded edges tilt, and
+// the split of a force into normal and tangential parts there is free. Mass ratio 1:
+// the sweeps converge below the cap.
 // Both Gauss-Seidel alone (newton_max_steps 0) and the whole step with its Newton
 // continuation of unconverged steps (core/solver.cpp: W's columns assembled as
 // W e, never as (q + W e) - q, which would round them to q's last bit).
@@ -109,6 +117,7 @@ TEST(Scale, EveryMassTimesKGivesTheSameTrajectoryAndSweeps) {
     EXPECT_EQ(Mismatches(base, t), 0) << k;
   }
   const Trace whole = RunStack(1.0, 1.0, EStopMeasure::Scaled, steps);
+  std::printf("two-box stack, %d steps: %d sweeps with Gauss-Seidel alone, %d with the Newton continuation\n", steps, TotalSweeps(base), TotalSweeps(whole));
   for (const double k : {8.0, 1024.0}) {
     const Trace t = RunStack(1.0, k, EStopMeasure::Scaled, steps);
     EXPECT_EQ(t.force, k * whole.force) << k;
@@ -117,9 +126,9 @@ TEST(Scale, EveryMassTimesKGivesTheSameTrajectoryAndSweeps) {
   }
   for (const double k : {10.0, 1000.0}) {
     const Trace t = RunStack(1.0, k, EStopMeasure::Scaled, steps);
-    EXPECT_NEAR(t.force, k * whole.force, 1e-4 * k * whole.force) << k;
+    EXPECT_NEAR(t.force, k * whole.force, 1e-5 * k * whole.force) << k;
     EXPECT_LT(MaxGap(whole, t), 1e-8) << k;
-    EXPECT_NEAR(TotalSweeps(t), TotalSweeps(whole), 0.05 * TotalSweeps(whole)) << k;
+    EXPECT_NEAR(TotalSweeps(t), TotalSweeps(whole), 0.2 * TotalSweeps(whole)) << k;
   }
 }
 
