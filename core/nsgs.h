@@ -113,7 +113,7 @@ struct NsgsParams {
   /// own changes, projected back on each cone; beta > 1 restarts the direction.
   /// Each sweep's local solves stay exact; what the momentum adds is checked by the
   /// same error measure. Costs two copies of r and one more pass over the contacts.
-  /// Off for the rest of the solve once it stops paying (MomentumWatch below).
+  /// Off for the rest of the solve once it stops paying (ProgressWatch below).
   bool conjugate = false;
   /// Anderson acceleration (0: off): after a sweep that leaves the forces
   /// unconverged, r moves to the combination of the last `anderson_depth` + 1 sweeps'
@@ -401,17 +401,22 @@ inline void SetErrors(NsgsResult* res, const NsgsErrors& e) {
 constexpr int kMomentumWindow = 200;
 constexpr double kMomentumRise = 3.0;
 
-struct MomentumWatch {
+/// Turns an acceleration off for the rest of a solve once `window` sweeps pass
+/// without a new lowest estimate while the estimate is above `rise` times that lowest.
+struct ProgressWatch {
+  int window = 0;
+  double rise = 0.0;
   double lowest = std::numeric_limits<double>::infinity();
   int lowest_at = 0;
   bool off = false;
-  /// After sweep `sweep` with in-sweep estimate `estimate`: true while the momentum stays on.
+  ProgressWatch(int window_sweeps, double rise_factor) : window(window_sweeps), rise(rise_factor) {}
+  /// After sweep `sweep` with in-sweep estimate `estimate`: true while the acceleration stays on.
   bool Pays(double estimate, int sweep) {
     if (estimate < lowest) {
       lowest = estimate;
       lowest_at = sweep;
     }
-    if (sweep - lowest_at > kMomentumWindow && estimate > kMomentumRise * lowest) off = true;
+    if (sweep - lowest_at > window && estimate > rise * lowest) off = true;
     return !off;
   }
 };
@@ -446,7 +451,7 @@ void ConjugateStep(Op& op, Vec3* r, NsgsScratch& s, int n, double* last) {
 // contact's projected on its cone. A sweep from a combination whose estimate rose
 // above its predecessor's clears the history (the combination did not pay), and
 // once kAndersonWindow sweeps pass without a new lowest estimate the acceleration
-// is off for the rest of the solve (AndersonWatch): at worst the solve goes on as
+// is off for the rest of the solve (ProgressWatch): at worst the solve goes on as
 // plain Gauss-Seidel.
 class Anderson {
  public:
@@ -581,22 +586,8 @@ class Anderson {
   Eigen::Matrix<double, kMax, kMax> gram_ = Eigen::Matrix<double, kMax, kMax>::Zero();
 };
 
+// sweeps without a new lowest estimate before the Anderson acceleration is off (ProgressWatch)
 constexpr int kAndersonWindow = 100;
-
-struct AndersonWatch {
-  double lowest = std::numeric_limits<double>::infinity();
-  int lowest_at = 0;
-  bool off = false;
-  /// After sweep `sweep` with in-sweep estimate `estimate`: true while the acceleration stays on.
-  bool Pays(double estimate, int sweep) {
-    if (estimate < lowest) {
-      lowest = estimate;
-      lowest_at = sweep;
-    }
-    if (sweep - lowest_at > kAndersonWindow) off = true;
-    return !off;
-  }
-};
 
 template <class Op>
 NsgsResult SolveNsgs(Op& op, Vec3* r, const NsgsParams& p, NsgsScratch& s) {
@@ -615,13 +606,13 @@ NsgsResult SolveNsgs(Op& op, Vec3* r, const NsgsParams& p, NsgsScratch& s) {
   NsgsStagnation stagnation;
   int sweep = 0;  // plain sweeps
   double last_change = 0.0;  // conjugate: the previous sweep's |dr|^2
-  MomentumWatch momentum;     // conjugate: on while it pays
+  ProgressWatch momentum(kMomentumWindow, kMomentumRise);  // conjugate: on while it pays
   const int depth = std::min(p.anderson_depth, kAndersonMaxDepth);
   const bool conjugate = p.conjugate && depth <= 0;
   if (conjugate || depth > 0) s.r_prev.resize(std::max(s.r_prev.size(), static_cast<size_t>(n)));
   if (conjugate) s.direction.resize(std::max(s.direction.size(), static_cast<size_t>(n)));
   Anderson anderson(s, n, depth);
-  AndersonWatch anderson_watch;
+  ProgressWatch anderson_watch(kAndersonWindow, 0.0);  // on while it finds new lowest estimates
   double last_estimate = std::numeric_limits<double>::infinity();
   while (res.iterations < p.max_iterations) {
     const bool backward = p.order == ESweepOrder::Alternating && (sweep & 1);
