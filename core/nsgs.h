@@ -118,7 +118,7 @@ struct NsgsParams {
   /// Anderson acceleration (0: off): after a sweep that leaves the forces
   /// unconverged, r moves to the combination of the last `anderson_depth` + 1 sweeps'
   /// outputs whose sweep changes (in gap units under the scaled measure) combine to
-  /// the least norm, projected back on each cone (AndersonStep below). Dense
+  /// the least norm, projected back on each cone (class Anderson below). Dense
   /// contacts under a wide skin couple their neighbours at up to 0.9 of their own
   /// compliance (W's condition near 1e5), where plain sweeps gain about 10 % a sweep.
   /// The local solves stay exact and the checked forces are a sweep's own, as with
@@ -473,8 +473,8 @@ class Anderson {
   }
   /// Whether the forces the last sweep started from were a combination (not a sweep's own).
   bool combined() const { return combined_; }
-  /// After a sweep from x to r (the accumulators at r): moves r on. `scale` is the
-  /// operator's contact force-to-gap factor (1 under Siconos' measure).
+  /// After a sweep from x to r (the accumulators at r): moves r on. With `scaled`
+  /// the changes are weighed in gap units (each contact's ForceToGap), else in forces.
   template <class Op>
   void Step(Op& op, Vec3* r, const Vec3* x, bool scaled) {
     Vec3* dg = s_.d_g.data();
@@ -621,9 +621,12 @@ NsgsResult SolveNsgs(Op& op, Vec3* r, const NsgsParams& p, NsgsScratch& s) {
     const NsgsErrors estimate = NsgsSweep(op, r, p, backward, nq, s.angle.data(), &sums);
     ++sweep;
     ++res.iterations;
-    // the momentum only on a sweep that will not be checked: a checked or bounded
-    // error is the error of the forces the sweep left
-    const bool unchecked = estimate.stop > p.tolerance && res.iterations < p.max_iterations && !(K > 0 && sweep % K == 0);
+    // the momentum only on a sweep that will not be checked: a checked, bounded or
+    // estimated error is the error of the forces the sweep left (a solve about to
+    // stop at its time budget reports this sweep's forces, and spends no more time)
+    const bool out_of_time = budget.Exhausted(res.iterations);
+    const bool unchecked = estimate.stop > p.tolerance && res.iterations < p.max_iterations &&
+                           !(K > 0 && sweep % K == 0) && !out_of_time;
     if (conjugate && unchecked && momentum.Pays(estimate.stop, res.iterations))
       ConjugateStep(op, r, s, n, &last_change);
     if (depth > 0 && anderson_watch.Pays(estimate.stop, res.iterations) && unchecked) {
@@ -640,7 +643,6 @@ NsgsResult SolveNsgs(Op& op, Vec3* r, const NsgsParams& p, NsgsScratch& s) {
         break;
       }
     }
-    const bool out_of_time = budget.Exhausted(res.iterations);
     if (out_of_time && p.accept_error_bound && estimate.stop > p.tolerance &&
         !budget.HoldsErrorPass(res.iterations)) {
       // out of time even for the exact pass (up to a sweep's cost on a step already
