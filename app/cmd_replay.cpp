@@ -233,7 +233,7 @@ int Replay(const ReplayOptions& opt) {
     recorder.AfterStep(w, tracker_text);
     step_ms.push_back(1e3 * w.profile.total);
     if (1e3 * w.profile.total >= *std::max_element(step_ms.begin(), step_ms.end())) {
-      slowest_detect = 1e3 * (w.profile.traverse + w.profile.interpenetration + w.profile.refit);
+      slowest_detect = 1e3 * w.profile.detect;
       slowest_solve = 1e3 * w.profile.solve;
     }
     max_iterations = std::max(max_iterations, w.profile.iterations);

@@ -58,7 +58,7 @@ Timed TimeSteps(World& w, int settle, int steps) {
     w.Step();
     const StepProfile& p = w.profile;
     total.push_back(1e3 * p.total);
-    coll.push_back(1e3 * (p.refit + p.traverse + p.interpenetration));
+    coll.push_back(1e3 * p.detect);
     solve.push_back(1e3 * p.solve);
     space.push_back(1e3 * (p.fill_w_rigid + p.fill_w_deform));
     motion.push_back(1e3 * (p.free_motion + p.constrained_motion));

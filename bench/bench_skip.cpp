@@ -149,7 +149,7 @@ Result Measure(const Case& c, int settle, int steps) {
       w.Step();
       const StepProfile& p = w.profile;
       t[s].push_back(1e3 * p.total);
-      coll[s].push_back(1e3 * (p.refit + p.traverse + p.interpenetration));
+      coll[s].push_back(1e3 * p.detect);
       space[s].push_back(1e3 * (p.fill_w_rigid + p.fill_w_deform));
       solve[s].push_back(1e3 * p.solve);
       motion[s].push_back(1e3 * (p.free_motion + p.constrained_motion));

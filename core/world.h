@@ -409,6 +409,10 @@ struct StepWork {
 struct StepProfile {
   double free_motion = 0, traverse = 0, interpenetration = 0, refit = 0;
   double fill_w_rigid = 0, fill_w_deform = 0, solve = 0, constrained_motion = 0, total = 0;
+  /// wall time of collision detection (refit, traverse and projections, s). With the
+  /// pairs on the runner's threads, `traverse` and `interpenetration` are the threads'
+  /// sums and can add up to more than this.
+  double detect = 0;
   int contacts = 0;
   int iterations = 0;
   int newton_steps = 0;  ///< Newton steps after an unconverged Gauss-Seidel (WorldParams::newton_max_steps)

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <string>
 
 namespace gs::app {
 namespace {
@@ -207,7 +208,67 @@ void OnePassSampling(const World& w, std::vector<IllPosed>* out) {
   }
 }
 
+// The smallest radius of curvature of a procedural shape's smooth surface (m), where
+// a surface resting on another body's control points sinks deepest between them;
+// infinite for flat faces (a box) and for meshes, whose curvature is not known here.
+double SmallestCurvatureRadius(const ShapeDesc& s) {
+  switch (s.type) {
+    case EShape::Sphere:
+    case EShape::Capsule:
+    case EShape::Cylinder:
+      return s.radius;
+    case EShape::Ellipsoid: {
+      const double a = s.semi_axes.maxCoeff(), c = s.semi_axes.minCoeff();
+      return c * c / a;
+    }
+    default:
+      return kNever;
+  }
+}
+
+// In one-pass contact a curved receiving surface rests on the emitting body's control
+// points only, and sinks between them by the sagitta of the gap. A sink deeper than
+// the receiver's smallest leaf is an overlap the contact does not resolve (as for
+// bodies that start overlapping): the receiver goes into the emitter by that much
+// wherever it lands between points, and its contact forces jump as it slides from
+// point to point.
+void OnePassCurvature(const World& w, std::vector<IllPosed>* out) {
+  const int n = static_cast<int>(w.bodies.size());
+  for (int e = 0; e < n; ++e) {
+    const Body& emitter = w.bodies[e];
+    if (emitter.geometry.is_plane || !emitter.emits_contacts) continue;
+    for (int s = 0; s < n; ++s) {
+      const Body& surface = w.bodies[s];
+      if (s == e || surface.geometry.is_plane || surface.emits_contacts) continue;
+      if ((emitter.articulation < 0 && surface.articulation < 0) || !w.CanTouch(e, s)) continue;
+      const double r = SmallestCurvatureRadius(surface.geometry.shape), leaf = SmallestLeaf(surface);
+      const double se = ControlSpacing(emitter), sink = SinkBetweenControlPoints(r, se);
+      if (!(sink > leaf)) continue;
+      // the widest gap whose sagitta is one leaf, and the control points that give it
+      const double gap = std::sqrt(leaf * (2.0 * r - leaf));
+      const double needed = std::ceil(emitter.geometry.area / std::pow(gap / kGapPerSpacing, 2.0));
+      const bool segment = surface.finger >= 0 && w.hand.fingers[surface.finger].body != s;
+      const std::string where =
+          segment ? "on the hand's phalanges (hand: phalanx: {contact_points: true})" : "on '" + surface.name + "'";
+      char msg[1000];
+      std::snprintf(msg, sizeof msg,
+                    "body '%s' touches '%s' in one-pass contact (contact_points: false on '%s'), but its control "
+                    "points are %.3g mm apart: a surface curved like '%s' (radius %.3g mm) resting on them sinks up to "
+                    "%.3g mm between them, deeper than the %.3g mm the contact resolves (the smallest leaf of its "
+                    "sphere tree). Give '%s' control_points >= %.0f, or set contact_points: true %s",
+                    emitter.name.c_str(), surface.name.c_str(), surface.name.c_str(), 1e3 * se, surface.name.c_str(),
+                    1e3 * r, 1e3 * sink, 1e3 * leaf, emitter.name.c_str(), needed, where.c_str());
+      out->push_back({IllPosed::ESite::Sampling, e, s, msg});
+    }
+  }
+}
+
 }  // namespace
+
+double SinkBetweenControlPoints(double radius, double spacing) {
+  const double gap = kGapPerSpacing * spacing;
+  return gap >= radius ? radius : radius - std::sqrt(radius * radius - gap * gap);
+}
 
 double LongestTimeStep(const Body& b, double g) { return LongestStep(b, g, 0.5 * SmallestLeaf(b)); }
 
@@ -216,6 +277,7 @@ std::vector<IllPosed> FindIllPosed(const World& w) {
   TimeStep(w, &out);
   Overlaps(w, &out);
   OnePassSampling(w, &out);
+  OnePassCurvature(w, &out);
   return out;
 }
 

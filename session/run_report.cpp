@@ -242,7 +242,7 @@ void PrintPaperTables(const std::vector<StepRecord>& steps) {
     trav.push_back(1e3 * p.traverse);
     interp.push_back(1e3 * p.interpenetration);
     refit.push_back(1e3 * p.refit);
-    coll.push_back(1e3 * (p.traverse + p.interpenetration + p.refit));
+    coll.push_back(1e3 * p.detect);
     contacts.push_back(p.contacts);
     rig.push_back(1e3 * p.fill_w_rigid);
     def.push_back(1e3 * p.fill_w_deform);

@@ -51,7 +51,7 @@ std::vector<ValidationResult> ValidateScale(const ValidationOptions& opt);
 /// The tracked whole hand's pinch and power grasp (config/tracked_whole_hand.yaml,
 /// config/whole_hand_power_grasp.yaml, the synthetic hand), friction lowered in stages
 /// of the least holding friction mu* of the state it is in: holds at 1.01 mu*, slips at
-/// 0.99 mu* (the pinch falls out); both contact modes.
+/// 0.99 mu* (into a state the friction covers, or out of the hand); both contact modes.
 std::vector<ValidationResult> ValidateWholeHand(const ValidationOptions& opt);
 
 /// Names accepted by `graspsim validate`.

@@ -1,7 +1,12 @@
 #include "scene/scene_file.h"
 
+#include "core/body_geometry.h"
+#include "scene/scene_checks.h"
+
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <random>
 
@@ -129,6 +134,86 @@ TEST(SceneFile, OnePassOnABoussinesqSurfaceNeedsPointsAsDenseAsItsOwn) {
   const int suggested = std::stoi(error.substr(at));
   EXPECT_GT(suggested, 60);
   for (const std::string& ok : {WithPad(1000, false, suggested), WithPad(1000, true, 60), WithPad(150, false, 60)}) {
+    Scene fine;
+    BuiltScene fine_built;
+    ASSERT_TRUE(LoadSceneFromString(ok, "t.yaml", &fine, &errors)) << (errors.empty() ? "" : errors[0].Format());
+    EXPECT_TRUE(BuildScene(fine, &fine_built, &error)) << error;
+  }
+}
+
+// kMinimal's ball (radius 10 mm) resting on a fixed 6 cm pad with `pad_cps` control
+// points, one-pass on the ball (`ball_emits` false: only the pad's points touch it)
+std::string BallOnPad(int pad_cps, bool ball_emits) {
+  std::string t = kMinimal;
+  t.replace(t.find("    mass_kg: 0.05\n"), 0, std::string("    contact_points: ") + (ball_emits ? "true" : "false") + "\n");
+  return t + "  - name: pad\n    shape: {type: box, size_m: [0.06, 0.06, 0.01]}\n    motion: fixed\n"
+             "    position_m: [0, 0, -0.005]\n    points: 6000\n    control_points: " +
+         std::to_string(pad_cps) + "\n";
+}
+
+// A rigid sphere resting on a sampled face's control points sinks between them no
+// deeper than SinkBetweenControlPoints says, and not much less: its widest gap,
+// kGapPerSpacing of the spacing, is measured here on the top face of a 6 cm box.
+TEST(SceneFile, ASphereRestingOnControlPointsSinksAsTheCheckPredicts) {
+  for (int cps : {400, 1200, 4800}) {
+    ShapeDesc box;
+    box.type = EShape::Box;
+    box.half_extents = Vec3::Constant(0.03);
+    GeometryOptions o;
+    o.points = 15 * cps / 2;
+    o.control_points = cps;
+    BodyGeometry g;
+    ASSERT_EQ(BuildShapeGeometry(box, o, &g), EGeometryError::None);
+    const double spacing = std::sqrt(g.area / cps);
+    std::vector<Vec3> top;
+    for (const Vec3& c : g.tree.control_points())
+      if (c.z() > 0.03 - 1e-9) top.push_back(c);
+    for (double r : {0.007, 0.0095}) {
+      // the sphere lowered onto the face over a 0.25 mm grid of its interior: its lowest
+      // point comes to rest below the face by `sink`
+      double deepest = 0.0;
+      for (double x = -0.03 + r; x <= 0.03 - r; x += 2.5e-4)
+        for (double y = -0.03 + r; y <= 0.03 - r; y += 2.5e-4) {
+          double centre = -1.0;
+          for (const Vec3& c : top) {
+            const double d2 = (c.x() - x) * (c.x() - x) + (c.y() - y) * (c.y() - y);
+            if (d2 < r * r) centre = std::max(centre, c.z() + std::sqrt(r * r - d2));
+          }
+          deepest = std::max(deepest, centre < 0.0 ? r : 0.03 - (centre - r));
+        }
+      const double predicted = SinkBetweenControlPoints(r, spacing);
+      EXPECT_LE(deepest, predicted * (1.0 + 1e-9)) << cps << " control points, radius " << r;
+      // and the widest gap is at least 0.85 of the spacing: the bound is not loose
+      const double gap = std::sqrt(r * r - (r - deepest) * (r - deepest));
+      EXPECT_GE(gap, 0.85 * spacing) << cps << " control points, radius " << r;
+    }
+  }
+}
+
+// one-pass contact on a curved surface by a body whose control points are too far apart:
+// the ball resting on them would sink between them deeper than its smallest leaf
+TEST(SceneFile, OnePassOnACurvedSurfaceNeedsPointsCloserThanItsCurvature) {
+  Scene s;
+  std::vector<SceneError> errors;
+  BuiltScene built;
+  std::string error;
+  // the pad's 60 control points are 13 mm apart: the 10 mm ball would fall to its centre
+  ASSERT_TRUE(LoadSceneFromString(BallOnPad(60, false), "t.yaml", &s, &errors));
+  EXPECT_FALSE(BuildScene(s, &built, &error));
+  EXPECT_NE(error.find("t.yaml:15:5"), std::string::npos) << error;
+  EXPECT_NE(error.find("body 'pad' touches 'ball' in one-pass contact"), std::string::npos) << error;
+  EXPECT_NE(error.find("sinks up to 10 mm"), std::string::npos) << error;
+  EXPECT_NE(error.find("Give 'pad' control_points >= "), std::string::npos) << error;
+  const int suggested = std::stoi(error.substr(error.find(">= ") + 3));
+  EXPECT_GT(suggested, 60);
+  // one fewer is refused; the suggestion, two-pass contact, and the pad's own 6,000 points' worth build
+  {
+    Scene fewer;
+    BuiltScene fewer_built;
+    ASSERT_TRUE(LoadSceneFromString(BallOnPad(suggested - 1, false), "t.yaml", &fewer, &errors));
+    EXPECT_FALSE(BuildScene(fewer, &fewer_built, &error));
+  }
+  for (const std::string& ok : {BallOnPad(suggested, false), BallOnPad(60, true), BallOnPad(800, false)}) {
     Scene fine;
     BuiltScene fine_built;
     ASSERT_TRUE(LoadSceneFromString(ok, "t.yaml", &fine, &errors)) << (errors.empty() ? "" : errors[0].Format());

@@ -136,13 +136,13 @@ TEST(Validation, WholeHandHoldsAtOnePercentAboveItsHoldingFrictionAndSlipsBelow)
       ASSERT_NE(hold, nullptr) << grasp << " " << mode;
       ASSERT_NE(release, nullptr) << grasp << " " << mode;
       EXPECT_EQ(hold->detail.find("OUTSIDE"), std::string::npos) << hold->detail;
-      // the pinch falls out of the hand below mu*; the power grasp slips and re-seats on
-      // its phalanges (a stage may end still slipping), its last stage held within the law
-      const std::string end = g == "pinch" ? "out of the hand" : "(re-seated)";
-      EXPECT_EQ(release->detail.compare(release->detail.size() - std::min(release->detail.size(), end.size()),
-                                        std::string::npos, end),
-                0)
-          << release->detail;
+      // below mu* each stage slips: out of the hand, or re-seated in a state the friction
+      // covers (a stage may end still slipping); the last stage ended one of the two ways
+      auto ends_with = [&](const std::string& end) {
+        return release->detail.size() >= end.size() &&
+               release->detail.compare(release->detail.size() - end.size(), std::string::npos, end) == 0;
+      };
+      EXPECT_TRUE(ends_with("out of the hand") || ends_with("(re-seated)")) << release->detail;
       EXPECT_EQ(release->detail.find("OUTSIDE"), std::string::npos) << release->detail;
     }
 }
