@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <limits>
 #include <string>
 
@@ -175,6 +176,22 @@ double ControlSpacing(const Body& b) {
   return n > 0 ? std::sqrt(b.geometry.area / static_cast<double>(n)) : 0.0;
 }
 
+// fn(e, s) for every pair in one-pass contact that can touch and of which one moves:
+// body e emits contacts (its control points are projected) onto body s, which does not
+void ForEachOnePassPair(const World& w, const std::function<void(int, int)>& fn) {
+  const int n = static_cast<int>(w.bodies.size());
+  for (int e = 0; e < n; ++e) {
+    const Body& emitter = w.bodies[e];
+    if (emitter.geometry.is_plane || !emitter.emits_contacts) continue;
+    for (int s = 0; s < n; ++s) {
+      const Body& surface = w.bodies[s];
+      if (s == e || surface.geometry.is_plane || surface.emits_contacts) continue;
+      if ((emitter.articulation < 0 && surface.articulation < 0) || !w.CanTouch(e, s)) continue;
+      fn(e, s);
+    }
+  }
+}
+
 // In one-pass contact only the emitting body's control points touch the other body's
 // surface. On a Boussinesq surface (a 1/r kernel) each contact presses a patch of the
 // surface's spacing, and between the emitter's points the surface is free to bulge up
@@ -183,29 +200,22 @@ double ControlSpacing(const Body& b) {
 // 2 % deep at 1.2x, 8 % at 1.7x, 18 % at 2x). Gaussian kernels are smooth at their
 // influence radius and do not see the sampling.
 void OnePassSampling(const World& w, std::vector<IllPosed>* out) {
-  const int n = static_cast<int>(w.bodies.size());
-  for (int e = 0; e < n; ++e) {
-    const Body& emitter = w.bodies[e];
-    if (emitter.geometry.is_plane || !emitter.emits_contacts) continue;
-    for (int s = 0; s < n; ++s) {
-      const Body& surface = w.bodies[s];
-      if (s == e || surface.geometry.is_plane || surface.emits_contacts) continue;
-      if (surface.deform.params().model != EDeformation::Boussinesq || !surface.deform.enabled()) continue;
-      if ((emitter.articulation < 0 && surface.articulation < 0) || !w.CanTouch(e, s)) continue;
-      const double se = ControlSpacing(emitter), ss = surface.deform.spacing();
-      if (!(se > kOnePassSpacingRatio * ss)) continue;
-      const double needed = std::ceil(emitter.geometry.area / std::pow(kOnePassSpacingRatio * ss, 2.0));
-      char msg[900];
-      std::snprintf(msg, sizeof msg,
-                    "body '%s' touches the Boussinesq surface of '%s' in one-pass contact (contact_points: false on "
-                    "'%s'), but its control points are %.3g mm apart against that surface's %.3g mm: between them the "
-                    "surface bulges into it and the contact comes out too soft (%.2gx the spacing; at most %.1fx is "
-                    "resolved). Give '%s' control_points >= %.0f, or set contact_points: true on '%s'",
-                    emitter.name.c_str(), surface.name.c_str(), surface.name.c_str(), 1e3 * se, 1e3 * ss, se / ss,
-                    kOnePassSpacingRatio, emitter.name.c_str(), needed, surface.name.c_str());
-      out->push_back({IllPosed::ESite::Sampling, e, s, msg});
-    }
-  }
+  ForEachOnePassPair(w, [&](int e, int s) {
+    const Body &emitter = w.bodies[e], &surface = w.bodies[s];
+    if (surface.deform.params().model != EDeformation::Boussinesq || !surface.deform.enabled()) return;
+    const double se = ControlSpacing(emitter), ss = surface.deform.spacing();
+    if (!(se > kOnePassSpacingRatio * ss)) return;
+    const double needed = std::ceil(emitter.geometry.area / std::pow(kOnePassSpacingRatio * ss, 2.0));
+    char msg[900];
+    std::snprintf(msg, sizeof msg,
+                  "body '%s' touches the Boussinesq surface of '%s' in one-pass contact (contact_points: false on "
+                  "'%s'), but its control points are %.3g mm apart against that surface's %.3g mm: between them the "
+                  "surface bulges into it and the contact comes out too soft (%.2gx the spacing; at most %.1fx is "
+                  "resolved). Give '%s' control_points >= %.0f, or set contact_points: true on '%s'",
+                  emitter.name.c_str(), surface.name.c_str(), surface.name.c_str(), 1e3 * se, 1e3 * ss, se / ss,
+                  kOnePassSpacingRatio, emitter.name.c_str(), needed, surface.name.c_str());
+    out->push_back({IllPosed::ESite::Sampling, e, s, msg});
+  });
 }
 
 // The smallest radius of curvature of a procedural shape's smooth surface (m), where
@@ -233,34 +243,27 @@ double SmallestCurvatureRadius(const ShapeDesc& s) {
 // wherever it lands between points, and its contact forces jump as it slides from
 // point to point.
 void OnePassCurvature(const World& w, std::vector<IllPosed>* out) {
-  const int n = static_cast<int>(w.bodies.size());
-  for (int e = 0; e < n; ++e) {
-    const Body& emitter = w.bodies[e];
-    if (emitter.geometry.is_plane || !emitter.emits_contacts) continue;
-    for (int s = 0; s < n; ++s) {
-      const Body& surface = w.bodies[s];
-      if (s == e || surface.geometry.is_plane || surface.emits_contacts) continue;
-      if ((emitter.articulation < 0 && surface.articulation < 0) || !w.CanTouch(e, s)) continue;
-      const double r = SmallestCurvatureRadius(surface.geometry.shape), leaf = SmallestLeaf(surface);
-      const double se = ControlSpacing(emitter), sink = SinkBetweenControlPoints(r, se);
-      if (!(sink > leaf)) continue;
-      // the widest gap whose sagitta is one leaf, and the control points that give it
-      const double gap = std::sqrt(leaf * (2.0 * r - leaf));
-      const double needed = std::ceil(emitter.geometry.area / std::pow(gap / kGapPerSpacing, 2.0));
-      const bool segment = surface.finger >= 0 && w.hand.fingers[surface.finger].body != s;
-      const std::string where =
-          segment ? "on the hand's phalanges (hand: phalanx: {contact_points: true})" : "on '" + surface.name + "'";
-      char msg[1000];
-      std::snprintf(msg, sizeof msg,
-                    "body '%s' touches '%s' in one-pass contact (contact_points: false on '%s'), but its control "
-                    "points are %.3g mm apart: a surface curved like '%s' (radius %.3g mm) resting on them sinks up to "
-                    "%.3g mm between them, deeper than the %.3g mm the contact resolves (the smallest leaf of its "
-                    "sphere tree). Give '%s' control_points >= %.0f, or set contact_points: true %s",
-                    emitter.name.c_str(), surface.name.c_str(), surface.name.c_str(), 1e3 * se, surface.name.c_str(),
-                    1e3 * r, 1e3 * sink, 1e3 * leaf, emitter.name.c_str(), needed, where.c_str());
-      out->push_back({IllPosed::ESite::Sampling, e, s, msg});
-    }
-  }
+  ForEachOnePassPair(w, [&](int e, int s) {
+    const Body &emitter = w.bodies[e], &surface = w.bodies[s];
+    const double r = SmallestCurvatureRadius(surface.geometry.shape), leaf = SmallestLeaf(surface);
+    const double se = ControlSpacing(emitter), sink = SinkBetweenControlPoints(r, se);
+    if (!(sink > leaf)) return;
+    // the widest gap whose sagitta is one leaf, and the control points that give it
+    const double gap = std::sqrt(leaf * (2.0 * r - leaf));
+    const double needed = std::ceil(emitter.geometry.area / std::pow(gap / kGapPerSpacing, 2.0));
+    const bool segment = surface.finger >= 0 && w.hand.fingers[surface.finger].body != s;
+    const std::string where =
+        segment ? "on the hand's phalanges (hand: phalanx: {contact_points: true})" : "on '" + surface.name + "'";
+    char msg[1000];
+    std::snprintf(msg, sizeof msg,
+                  "body '%s' touches '%s' in one-pass contact (contact_points: false on '%s'), but its control "
+                  "points are %.3g mm apart: a surface curved like '%s' (radius %.3g mm) resting on them sinks up to "
+                  "%.3g mm between them, deeper than the %.3g mm the contact resolves (the smallest leaf of its "
+                  "sphere tree). Give '%s' control_points >= %.0f, or set contact_points: true %s",
+                  emitter.name.c_str(), surface.name.c_str(), surface.name.c_str(), 1e3 * se, surface.name.c_str(),
+                  1e3 * r, 1e3 * sink, 1e3 * leaf, emitter.name.c_str(), needed, where.c_str());
+    out->push_back({IllPosed::ESite::Sampling, e, s, msg});
+  });
 }
 
 }  // namespace
