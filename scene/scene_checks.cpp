@@ -219,8 +219,8 @@ void OnePassSampling(const World& w, std::vector<IllPosed>* out) {
 }
 
 // The smallest radius of curvature of a procedural shape's smooth surface (m), where
-// a surface resting on another body's control points sinks deepest between them;
-// infinite for flat faces (a box) and for meshes, whose curvature is not known here.
+// it sinks deepest between another body's control points or bulges most between its
+// own; infinite for flat faces (a box) and for meshes, whose curvature is not known here.
 double SmallestCurvatureRadius(const ShapeDesc& s) {
   switch (s.type) {
     case EShape::Sphere:
@@ -245,7 +245,11 @@ double SmallestCurvatureRadius(const ShapeDesc& s) {
 void OnePassCurvature(const World& w, std::vector<IllPosed>* out) {
   ForEachOnePassPair(w, [&](int e, int s) {
     const Body &emitter = w.bodies[e], &surface = w.bodies[s];
-    const double r = SmallestCurvatureRadius(surface.geometry.shape), leaf = SmallestLeaf(surface);
+    // a curved emitter's own surface bulges between its points too: the two sagittas add,
+    // as one of the relative radius 1 / (1/r_surface + 1/r_emitter)
+    const double r = 1.0 / (1.0 / SmallestCurvatureRadius(surface.geometry.shape) +
+                            1.0 / SmallestCurvatureRadius(emitter.geometry.shape));
+    const double leaf = SmallestLeaf(surface);
     const double se = ControlSpacing(emitter), sink = SinkBetweenControlPoints(r, se);
     if (!(sink > leaf)) return;
     // the widest gap whose sagitta is one leaf, and the control points that give it
@@ -257,11 +261,11 @@ void OnePassCurvature(const World& w, std::vector<IllPosed>* out) {
     char msg[1000];
     std::snprintf(msg, sizeof msg,
                   "body '%s' touches '%s' in one-pass contact (contact_points: false on '%s'), but its control "
-                  "points are %.3g mm apart: a surface curved like '%s' (radius %.3g mm) resting on them sinks up to "
-                  "%.3g mm between them, deeper than the %.3g mm the contact resolves (the smallest leaf of its "
-                  "sphere tree). Give '%s' control_points >= %.0f, or set contact_points: true %s",
+                  "points are %.3g mm apart: resting on them, '%s' sinks up to %.3g mm into it between them (their "
+                  "relative curvature radius %.3g mm), deeper than the %.3g mm the contact resolves (the smallest leaf "
+                  "of its sphere tree). Give '%s' control_points >= %.0f, or set contact_points: true %s",
                   emitter.name.c_str(), surface.name.c_str(), surface.name.c_str(), 1e3 * se, surface.name.c_str(),
-                  1e3 * r, 1e3 * sink, 1e3 * leaf, emitter.name.c_str(), needed, where.c_str());
+                  1e3 * sink, 1e3 * r, 1e3 * leaf, emitter.name.c_str(), needed, where.c_str());
     out->push_back({IllPosed::ESite::Sampling, e, s, msg});
   });
 }

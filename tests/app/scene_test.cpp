@@ -202,7 +202,8 @@ TEST(SceneFile, OnePassOnACurvedSurfaceNeedsPointsCloserThanItsCurvature) {
   EXPECT_FALSE(BuildScene(s, &built, &error));
   EXPECT_NE(error.find("t.yaml:15:5"), std::string::npos) << error;
   EXPECT_NE(error.find("body 'pad' touches 'ball' in one-pass contact"), std::string::npos) << error;
-  EXPECT_NE(error.find("sinks up to 10 mm"), std::string::npos) << error;
+  EXPECT_NE(error.find("'ball' sinks up to 10 mm"), std::string::npos) << error;
+  EXPECT_NE(error.find("relative curvature radius 10 mm"), std::string::npos) << error;
   EXPECT_NE(error.find("Give 'pad' control_points >= "), std::string::npos) << error;
   const int suggested = std::stoi(error.substr(error.find(">= ") + 3));
   EXPECT_GT(suggested, 60);
@@ -219,6 +220,16 @@ TEST(SceneFile, OnePassOnACurvedSurfaceNeedsPointsCloserThanItsCurvature) {
     ASSERT_TRUE(LoadSceneFromString(ok, "t.yaml", &fine, &errors)) << (errors.empty() ? "" : errors[0].Format());
     EXPECT_TRUE(BuildScene(fine, &fine_built, &error)) << error;
   }
+  // a curved emitter bulges between its points as well: a 3 cm ball of control points
+  // under the 1 cm one is a relative radius of 1 / (1/10 + 1/30) mm
+  std::string ball_pad = BallOnPad(60, false);
+  ball_pad.replace(ball_pad.find("{type: box, size_m: [0.06, 0.06, 0.01]}"), 39, "{type: sphere, radius_m: 0.03}");
+  ball_pad.replace(ball_pad.find("position_m: [0, 0, -0.005]"), 26, "position_m: [0, 0, -0.03]");
+  Scene curved;
+  BuiltScene curved_built;
+  ASSERT_TRUE(LoadSceneFromString(ball_pad, "t.yaml", &curved, &errors)) << (errors.empty() ? "" : errors[0].Format());
+  EXPECT_FALSE(BuildScene(curved, &curved_built, &error));
+  EXPECT_NE(error.find("relative curvature radius 7.5 mm"), std::string::npos) << error;
 }
 
 TEST(SceneFile, IllPosedMechanicsAreRefusedWithTheirPosition) {
