@@ -586,6 +586,9 @@ struct PairGeometry {
 
 // Below this curvature (1/m: radius 1 m) a direction is taken as flat in CommonNormal.
 constexpr double kFlatCurvature = 1.0;
+// A pair's curvature in one direction below this fraction of its curvature in the
+// other is the patches' fitting noise: flat there (a line contact, OffsetFrom)
+constexpr double kCurvatureNoise = 0.1;
 // normals more than 60 degrees apart are no pair of touching smooth surfaces
 constexpr double kMaxPairAngle = M_PI / 3;
 
@@ -601,19 +604,25 @@ Eigen::Matrix2d ShapeAlong(const MlsPatch& p, const Vec3& b1, const Vec3& b2) {
   return A.transpose() * K * A * (-1.0 / p.h);
 }
 
-// x solving m x = -phi e1 over the eigen-directions of the symmetric m whose
-// eigenvalue exceeds kFlatCurvature (0 along the others)
+// x solving m x = -phi e1 over the eigen-directions of the symmetric m in which
+// the pair is curved: eigenvalue above kFlatCurvature and above kCurvatureNoise
+// times the larger one. Along a line contact (a capsule on a cylinder, axes
+// parallel) the pair is flat along the line, and the patches' fitted curvatures
+// there are noise, a few 1/m against the 1/(8 mm) across it: read as curvature they
+// moved the touching point decimetres along the line, and the normal force's lever
+// arm with it (0.68 m on a tracked hand's phalanx lying along a can).
 Eigen::Vector2d OffsetFrom(const Eigen::Matrix2d& m, double phi) {
   const double a = m(0, 0), b = m(0, 1), d = m(1, 1);
   const double mean = 0.5 * (a + d), r = std::hypot(0.5 * (a - d), b);
-  const double l1 = mean + r, l2 = mean - r;
-  if (!(l1 > kFlatCurvature)) return Eigen::Vector2d::Zero();
-  if (l2 > kFlatCurvature) return Eigen::Vector2d(-d, b) * (phi / (a * d - b * b));
-  // one curved direction: the eigenvector of l1 is a column of m - l2 I
-  Eigen::Vector2d v(a - l2, b);
-  if (v.squaredNorm() < 1e-24) v = Eigen::Vector2d(b, d - l2);
-  v.normalize();
-  return -v * (v.x() * phi / l1);
+  const double l[2] = {mean + r, mean - r};
+  // the eigenvector of the larger eigenvalue at angle t, the smaller's at t + 90 deg
+  // (isotropic m, r = 0: any two directions)
+  const double t = 0.5 * std::atan2(2.0 * b, a - d);
+  const Eigen::Vector2d v[2] = {{std::cos(t), std::sin(t)}, {-std::sin(t), std::cos(t)}};
+  Eigen::Vector2d x = Eigen::Vector2d::Zero();
+  for (int i = 0; i < 2; ++i)
+    if (l[i] > kFlatCurvature && l[i] > kCurvatureNoise * l[0]) x -= v[i] * (phi * v[i].x() / l[i]);
+  return x;
 }
 
 // The common normal of two smooth surfaces, from one query point x on Q projected

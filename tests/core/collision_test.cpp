@@ -903,6 +903,60 @@ TEST(Collision, CurvedContactsActWhereTheSurfacesTouch) {
   }
 }
 
+// A capsule (a phalanx, 8 mm) pressed up to 7 mm deep (a squashed skin) on a can's
+// side (30 mm) and on a capsule like it, anywhere along them, their axes parallel or
+// crossing at up to 30 degrees: a line contact or a long ellipse. Its touching points
+// (rigid bodies: where the anchors move) stay on the bodies' lengths. Along the
+// ellipse the pair is nearly flat, and the quadrics' touching point there lies far
+// out, past the ends of the real bodies: before, anchors went 22 mm past a capsule's
+// end, and on a tracked hand's phalanx lying across a can a normal force's lever arm
+// reached 0.68 m.
+TEST(Collision, LineContactsTouchWithinTheBodies) {
+  ShapeDesc capsule, can;
+  capsule.type = EShape::Capsule;
+  capsule.radius = 0.008;
+  capsule.half_length = 0.0135;
+  can.type = EShape::Cylinder;
+  can.radius = 0.03;
+  can.half_length = 0.04;
+  auto fa = Make(capsule, 1600, 200, 21);
+  auto fb = Make(capsule, 1600, 200, 22);
+  auto fc = Make(can, 6000, 800, 23);
+  std::mt19937_64 rng(29);
+  std::uniform_real_distribution<double> u01(0.0, 1.0);
+  const auto about = [](double angle, const Vec3& axis) { return Mat3(Eigen::AngleAxisd(angle, axis)); };
+  double beyond = 0.0;  // the farthest an anchor lies past either body's end (m)
+  int contacts = 0;
+  for (int k = 0; k < 400; ++k) {
+    const bool on_can = k % 2 == 0;
+    const double other_r = on_can ? can.radius : capsule.radius;
+    const double cross = k % 3 == 0 ? 0.0 : (M_PI / 6) * u01(rng);
+    const double dir = 2.0 * M_PI * u01(rng), depth = 7e-3 * u01(rng);
+    const Vec3 side(std::cos(dir), std::sin(dir), 0.0);
+    // the capsule beside the other body, its axis turned by `cross` about the line between them
+    const Pose pa{about(cross, side) * about(2.0 * M_PI * u01(rng), Vec3::UnitZ()),
+                  side * (other_r + capsule.radius - depth) + Vec3(0, 0, 0.09 * (u01(rng) - 0.5))};
+    const Pose pb{about(2.0 * M_PI * u01(rng), Vec3::UnitZ()), Vec3::Zero()};
+    CollisionScratch scratch;
+    scratch.Reserve(std::max(fa->geom.tree.num_leaves(), fc->geom.tree.num_leaves()), 100000);
+    ContactBuffer buf;
+    buf.Reserve(100000);
+    CollisionStats stats;
+    CollidePair(0, fa->shape(), pa, 1, (on_can ? fc : fb)->shape(), pb, CollisionParams{}, &scratch, &buf, &stats);
+    const double end_b = on_can ? can.half_length : capsule.half_length + capsule.radius;
+    for (const Contact& c : buf.items)
+      for (int s = 0; s < 2; ++s) {
+        const Vec3 p = (c.body[s] == 0 ? pa : pb).Apply(c.anchor[s]);
+        beyond = std::max({beyond, std::abs(pa.ApplyInverse(p).z()) - capsule.half_length - capsule.radius,
+                           std::abs(pb.ApplyInverse(p).z()) - end_b});
+      }
+    contacts += static_cast<int>(buf.items.size());
+  }
+  std::printf("line contacts: %d, anchors at most %.3g mm past a body's end\n", contacts, 1e3 * beyond);
+  EXPECT_GT(contacts, 10000);
+  EXPECT_LT(beyond, 3e-3);
+}
+
 }  // namespace
 }  // namespace gs
 
