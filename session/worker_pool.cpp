@@ -2,9 +2,12 @@
 
 #include <pthread.h>
 #include <sched.h>
+#include <sys/prctl.h>
+#include <time.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
 
 namespace gs::app {
@@ -20,6 +23,11 @@ void LeaveTheCreatorsCore(const cpu_set_t& creator) {
   for (long c = 0; c < cores && c < CPU_SETSIZE; ++c)
     if (!CPU_ISSET(c, &creator)) CPU_SET(c, &others);
   if (CPU_COUNT(&others) > 0) pthread_setaffinity_np(pthread_self(), sizeof others, &others);  // best effort
+}
+
+int64_t NowNs() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch())
+      .count();
 }
 
 }  // namespace
@@ -38,6 +46,8 @@ void WorkerPool::Start() {
   for (int k = 1; k < threads_; ++k)
     workers_.emplace_back([this, k, creator, known] {
       if (known) LeaveTheCreatorsCore(creator);
+      // its clock sleeps end on time (a normal thread's may end 50 us late)
+      prctl(PR_SET_TIMERSLACK, 1UL, 0UL, 0UL, 0UL);
       Work(k);
     });
 }
@@ -73,6 +83,7 @@ void WorkerPool::Run(int count, void (*fn)(void*, int, int), void* ctx) {
     for (int t = 0; t < count; ++t) fn(ctx, t, 0);
     return;
   }
+  NoteJobStart();
   count_ = count;
   fn_ = fn;
   ctx_ = ctx;
@@ -106,10 +117,45 @@ void WorkerPool::Drain(int thread) {
   }
 }
 
+// the next job is due one interval (this start less the last) after this one
+void WorkerPool::NoteJobStart() {
+  const int64_t now = NowNs();
+  const int64_t interval = now - last_start_ns_;
+  const bool steady = last_start_ns_ > 0 && interval < std::chrono::nanoseconds(kDueWindow).count();
+  due_ns_.store(steady ? now + interval : 0, std::memory_order_relaxed);
+  last_start_ns_ = now;
+}
+
+// After a job: sleeps on the clock until shortly before the next is due, then waits
+// awake for it until kExpectSpin past that. True when it came (or the pool stops).
+bool WorkerPool::AwaitDueJob(uint32_t seen) {
+  const int64_t due = due_ns_.load(std::memory_order_relaxed);
+  const int64_t now = NowNs();
+  if (due <= now || due - now > std::chrono::nanoseconds(kDueWindow).count()) return false;
+  const int64_t wake = due - std::chrono::nanoseconds(kDueLead).count();
+  if (wake > now) {
+    // steady clock = CLOCK_MONOTONIC on Linux
+    timespec at{static_cast<time_t>(wake / 1000000000), static_cast<long>(wake % 1000000000)};
+    while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &at, nullptr) == EINTR) {
+    }
+  }
+  const int64_t until = due + std::chrono::nanoseconds(kExpectSpin).count();
+  while (generation_.load(std::memory_order_acquire) == seen && !stop_.load(std::memory_order_relaxed)) {
+    if (NowNs() > until) return false;
+  }
+  return true;
+}
+
 void WorkerPool::Work(int thread) {
   uint32_t seen = 0, expected = 0;
+  bool due = false;  // a job just ended: wait for the next on the clock first
   for (;;) {
-    {
+    if (due) {
+      // an Expect meanwhile is for the job waited for here
+      expected = expected_.load(std::memory_order_relaxed);
+      due = AwaitDueJob(seen);
+    }
+    if (!due) {
       std::unique_lock<std::mutex> lock(wake_mutex_);
       wake_.wait(lock, [&] {
         return generation_.load(std::memory_order_acquire) != seen || expected_.load(std::memory_order_relaxed) != expected;
@@ -125,9 +171,11 @@ void WorkerPool::Work(int thread) {
     const uint32_t g = generation_.load(std::memory_order_acquire);
     if (g == seen) continue;  // nothing came: asleep again
     seen = g;
+    due = false;
     if (!Join(seen)) continue;
     Drain(thread);
     state_.fetch_sub(1, std::memory_order_acq_rel);
+    due = true;
   }
 }
 

@@ -7,7 +7,9 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <chrono>
 #include <cstring>
+#include <memory>
 #include <thread>
 #include <vector>
 
@@ -50,15 +52,14 @@ TEST(WorkerPool, RunsEveryTaskOnceOnItsThreads) {
   EXPECT_EQ(pool.started(), 2);
 }
 
-// the caller takes task 0 first and holds it until a worker has taken another:
-// the workers do join in (waited for by the state, not by a clock)
-TEST(WorkerPool, AWorkerTakesTasksWhileTheCallerWorks) {
-  WorkerPool pool(2);
+// a job the caller holds until a worker has taken one of its other tasks: done only
+// if a worker joins (waited for by the state, not by a clock)
+void RunNeedingAWorker(WorkerPool* pool) {
   struct Ctx {
     std::atomic<int> by_worker{0};
   } ctx;
-  pool.Run(
-      64,
+  pool->Run(
+      16,
       [](void* c, int task, int thread) {
         auto& x = *static_cast<Ctx*>(c);
         if (thread > 0) x.by_worker.fetch_add(1);
@@ -67,6 +68,33 @@ TEST(WorkerPool, AWorkerTakesTasksWhileTheCallerWorks) {
       },
       &ctx);
   EXPECT_GT(ctx.by_worker.load(), 0);
+}
+
+// the caller takes task 0 first and holds it until a worker has taken another:
+// the workers do join in
+TEST(WorkerPool, AWorkerTakesTasksWhileTheCallerWorks) {
+  WorkerPool pool(2);
+  RunNeedingAWorker(&pool);
+}
+
+// Jobs at a steady pace: the worker waits for the next on the clock, not asleep on
+// the condition variable. A pause longer than it waits puts it to sleep there, and
+// the next job still wakes it; a pool destroyed while its worker waits for a due job
+// stops (a hang would end at the test's timeout).
+TEST(WorkerPool, AWorkerWaitingForTheNextJobOnTheClockIsWokenWhenItComesLate) {
+  for (int pause_ms : {0, 2, 20}) {
+    auto pool = std::make_unique<WorkerPool>(2);
+    for (int round = 0; round < 200; ++round) {
+      Tally tally(8, 2);
+      pool->Run(8, Count, &tally);
+      for (int k = 0; k < 8; ++k) ASSERT_EQ(tally.runs[k].load(), 1);
+      std::this_thread::sleep_for(std::chrono::microseconds(200));
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(pause_ms));
+    RunNeedingAWorker(pool.get());
+    RunNeedingAWorker(pool.get());
+    pool.reset();
+  }
 }
 
 // two worlds stepping on two threads share one pool: while one runs its tasks on
