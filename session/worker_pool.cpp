@@ -3,11 +3,9 @@
 #include <pthread.h>
 #include <sched.h>
 #include <sys/prctl.h>
-#include <time.h>
 #include <unistd.h>
 
 #include <algorithm>
-#include <cerrno>
 #include <chrono>
 
 namespace gs::app {
@@ -126,18 +124,21 @@ void WorkerPool::NoteJobStart() {
   last_start_ns_ = now;
 }
 
-// After a job: sleeps on the clock until shortly before the next is due, then waits
-// awake for it until kExpectSpin past that. True when it came (or the pool stops).
-bool WorkerPool::AwaitDueJob(uint32_t seen) {
+// After a job: sleeps until shortly before the next is due, then waits awake for it
+// until kExpectSpin past that. The sleep is on the condition variable, so that tasks
+// coming early (or an Expect) wake it as before; tasks on time find it awake and
+// wake nobody. True when they came (or the pool stops).
+bool WorkerPool::AwaitDueJob(uint32_t seen, uint32_t expected) {
   const int64_t due = due_ns_.load(std::memory_order_relaxed);
   const int64_t now = NowNs();
   if (due <= now || due - now > std::chrono::nanoseconds(kDueWindow).count()) return false;
   const int64_t wake = due - std::chrono::nanoseconds(kDueLead).count();
   if (wake > now) {
-    // steady clock = CLOCK_MONOTONIC on Linux
-    timespec at{static_cast<time_t>(wake / 1000000000), static_cast<long>(wake % 1000000000)};
-    while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &at, nullptr) == EINTR) {
-    }
+    std::unique_lock<std::mutex> lock(wake_mutex_);
+    wake_.wait_until(lock, std::chrono::steady_clock::time_point(std::chrono::nanoseconds(wake)), [&] {
+      return generation_.load(std::memory_order_acquire) != seen ||
+             expected_.load(std::memory_order_relaxed) != expected || stop_.load(std::memory_order_relaxed);
+    });
   }
   const int64_t until = due + std::chrono::nanoseconds(kExpectSpin).count();
   while (generation_.load(std::memory_order_acquire) == seen && !stop_.load(std::memory_order_relaxed)) {
@@ -153,7 +154,7 @@ void WorkerPool::Work(int thread) {
     if (due) {
       // an Expect meanwhile is for the job waited for here
       expected = expected_.load(std::memory_order_relaxed);
-      due = AwaitDueJob(seen);
+      due = AwaitDueJob(seen, expected);
     }
     if (!due) {
       std::unique_lock<std::mutex> lock(wake_mutex_);

@@ -11,13 +11,13 @@
 // core puts them on the others.
 //
 // Steps come at a steady pace (1 kHz live, back to back offline), and so do their
-// tasks. A worker done with one job sleeps on a clock until shortly before the next
-// is due (the last job's start plus the interval between the last two), then waits
-// awake for it: the caller's Expect and Run then find no sleeper to wake. Waking a
-// sleeping thread is a futex syscall on the caller's thread, 0.04 ms on a virtual
-// machine, a tenth of the whole hand's step at the paper's densities. A job that
-// comes earlier than due is joined late; one that does not come within kExpectSpin
-// leaves the worker asleep on the condition variable again, woken as before.
+// tasks. A worker done with one job sleeps until shortly before the next is due (the
+// last job's start plus the interval between the last two), then waits awake for
+// it: the caller's Expect and Run then find no sleeper to wake. Waking a sleeping
+// thread is a futex syscall on the caller's thread, 0.04 ms on a virtual machine, a
+// tenth of the whole hand's step at the paper's densities. Tasks (or an Expect) that
+// come before the worker is up wake it as before; tasks that do not come within
+// kExpectSpin of their due time leave it asleep until the next.
 #pragma once
 
 #include <algorithm>
@@ -57,8 +57,8 @@ class WorkerPool final : public TaskRunner {
   // and how many workers are in it (low 31 bits)
   static constexpr uint64_t kOpen = uint64_t{1} << 31;
   static constexpr std::chrono::microseconds kExpectSpin{300};
-  /// how long before a job is due a worker stops sleeping on the clock
-  static constexpr std::chrono::microseconds kDueLead{100};
+  /// how long before a job is due a worker wakes to wait for it awake
+  static constexpr std::chrono::microseconds kDueLead{200};
   /// jobs further apart than this are not waited for on the clock
   static constexpr std::chrono::milliseconds kDueWindow{5};
   static constexpr uint64_t kJoinedMask = kOpen - 1;
@@ -68,7 +68,7 @@ class WorkerPool final : public TaskRunner {
   bool Join(uint32_t generation);
   void Drain(int thread);
   void NoteJobStart();
-  bool AwaitDueJob(uint32_t seen);
+  bool AwaitDueJob(uint32_t seen, uint32_t expected);
 
   int threads_ = 1;
   std::vector<std::thread> workers_;
