@@ -587,7 +587,7 @@ struct PairGeometry {
 // Below this curvature (1/m: radius 1 m) a direction is taken as flat in CommonNormal.
 constexpr double kFlatCurvature = 1.0;
 // A pair's curvature in one direction below this fraction of its curvature in the
-// other is the patches' fitting noise: flat there (a line contact, OffsetFrom)
+// other: flat there (a line contact or a long ellipse, OffsetFrom)
 constexpr double kCurvatureNoise = 0.1;
 // normals more than 60 degrees apart are no pair of touching smooth surfaces
 constexpr double kMaxPairAngle = M_PI / 3;
@@ -606,11 +606,12 @@ Eigen::Matrix2d ShapeAlong(const MlsPatch& p, const Vec3& b1, const Vec3& b2) {
 
 // x solving m x = -phi e1 over the eigen-directions of the symmetric m in which
 // the pair is curved: eigenvalue above kFlatCurvature and above kCurvatureNoise
-// times the larger one. Along a line contact (a capsule on a cylinder, axes
-// parallel) the pair is flat along the line, and the patches' fitted curvatures
-// there are noise, a few 1/m against the 1/(8 mm) across it: read as curvature they
-// moved the touching point decimetres along the line, and the normal force's lever
-// arm with it (0.68 m on a tracked hand's phalanx lying along a can).
+// times the larger one. Along a line contact (a capsule on a cylinder, axes parallel
+// or crossing at a small angle) the pair is nearly flat along the line, and there
+// the quadrics' touching point lies where two infinite cylinders would cross, past
+// the ends of the real bodies: it moved the normal force's lever arm decimetres
+// along the line (0.68 m on a tracked hand's phalanx lying across a can). The
+// samples spread along the line press where they are instead.
 Eigen::Vector2d OffsetFrom(const Eigen::Matrix2d& m, double phi) {
   const double a = m(0, 0), b = m(0, 1), d = m(1, 1);
   const double mean = 0.5 * (a + d), r = std::hypot(0.5 * (a - d), b);
