@@ -8,6 +8,8 @@
 
 #include "app/cli_help.h"
 #include "app/commands.h"
+#include "scene/paths.h"
+#include "session/tracked_sim.h"
 #include "session/tracker_app.h"
 #include "tracking/session_log.h"
 #include "tracking/synthetic_hand.h"
@@ -28,10 +30,39 @@ struct SendOptions {
   bool left = false;
   int loops = 1;
   double start_delay = 0.0;
+  std::string scene;  // --synthetic: the hand of this scene's tracker, aimed at its object
 };
 
+// the synthetic hand of the options (--scene: the one that scene's tracker follows,
+// aimed at its object); false with the scene's error
+bool ChooseHand(const SendOptions& opt, tracking::SyntheticHand* hand, std::string* error) {
+  if (!opt.scene.empty()) {
+    TrackedSim sim;
+    std::string moved;
+    if (!LoadForSyntheticHand(ResolveResource(opt.scene), &sim, hand, &moved, error)) return false;
+    if (!moved.empty())
+      std::printf("send: %s: %s; live starts the hand where the scene puts it: give the scene's hand that pose\n",
+                  opt.scene.c_str(), moved.c_str());
+    if (hand->whole_hand) {
+      hand->hold_s = opt.hold;
+      hand->duration_s = 2.8 + opt.hold;
+    }
+  } else {
+    hand->fingers = opt.fingers ? opt.fingers : 3;
+    if (opt.whole_hand) *hand = tracking::SyntheticHand::WholeHand(opt.fingers ? opt.fingers : 5, opt.hold);
+    hand->right = !opt.left;
+  }
+  hand->pinch = opt.pinch;
+  return true;
+}
+
 int Send(const SendOptions& opt) {
-  if (opt.pinch && !(opt.synthetic && opt.whole_hand)) {
+  if (!opt.scene.empty() && (!opt.synthetic || opt.whole_hand || opt.fingers || opt.left)) {
+    std::fprintf(stderr, "send: --scene chooses the synthetic hand (its tracker's fingers and side): give it with "
+                         "--synthetic, without --whole-hand, --fingers or --left\n");
+    return kExitUsage;
+  }
+  if (opt.pinch && !(opt.synthetic && (opt.whole_hand || !opt.scene.empty()))) {
     std::fprintf(stderr, "send: --pinch is a grasp of the synthetic whole hand: give it with --synthetic --whole-hand\n");
     return kExitUsage;
   }
@@ -51,10 +82,15 @@ int Send(const SendOptions& opt) {
   }
   // one pass: the synthetic hand, or the log streamed (sessions can be longer than memory)
   tracking::SyntheticHand hand;
-  hand.fingers = opt.fingers ? opt.fingers : 3;
-  if (opt.whole_hand) hand = tracking::SyntheticHand::WholeHand(opt.fingers ? opt.fingers : 5, opt.hold);
-  hand.pinch = opt.pinch;
-  hand.right = !opt.left;
+  if (!ChooseHand(opt, &hand, &error)) {
+    std::fprintf(stderr, "send: %s\n", error.c_str());
+    return kExitBadInput;
+  }
+  if (opt.pinch && !hand.whole_hand) {
+    std::fprintf(stderr, "send: --pinch is a grasp of the whole hand; %s's tracker follows fingertips\n",
+                 opt.scene.c_str());
+    return kExitUsage;
+  }
   const double synthetic_rate = opt.rate > 0 ? opt.rate : 100.0;
   uint64_t per_pass = 0;
   double period = 0.0;  // seconds from one pass's start to the next
@@ -152,6 +188,11 @@ void AddSendCommand(CLI::App& app, int* exit_code) {
       ->type_name("SECONDS")
       ->capture_default_str()
       ->check(InRange(0.0, 600.0, "a number of seconds"));
+  cmd->add_option("--scene", opt->scene,
+                  "--synthetic: the hand that scene's tracker follows (fingertips or a whole hand, its fingers and "
+                  "side), grasping the scene's object where it lies: a box on its faces, a curved one wrapped, a tall "
+                  "curved one from the side (docs/tracking.md)")
+      ->type_name("SCENE.yaml");
   cmd->add_option("--loop", opt->loops, "passes over the session")
       ->type_name("N")
       ->check(IntInRange(1, 1000000, "a number of passes"));
@@ -163,13 +204,16 @@ void AddSendCommand(CLI::App& app, int* exit_code) {
                                                            "port of config/tracked_hand.yaml)"},
                  {"graspsim send --synthetic --whole-hand --fingers 5 --port 5000",
                   "a five-finger whole hand grasping the box with palm and phalanges (5.8 s)"},
+                 {"graspsim send --synthetic --scene my_can.yaml --port 5000",
+                  "the hand my_can.yaml's tracker follows, grasping its object"},
                  {"graspsim send assets/demo_session.lcmlog --port 5000 --loop 3",
                   "a recorded session, three times at its recorded pace"}},
                 {{kExitOk, "every datagram was sent"},
                  {kExitFailure, "a datagram could not be sent"},
                  {kExitUsage, "bad command line: neither or both of FILE.lcmlog and --synthetic, --pinch or --left "
-                              "without --synthetic --whole-hand, or a --host that cannot be used"},
-                 {kExitBadInput, "the session log was refused or holds no datagrams"},
+                              "without --synthetic --whole-hand, --scene with --whole-hand, --fingers or --left, or a "
+                              "--host that cannot be used"},
+                 {kExitBadInput, "the session log was refused or holds no datagrams, or the --scene was refused"},
                  {kExitInterrupted, "stopped early by Ctrl-C or SIGTERM"}});
   cmd->callback([opt, exit_code]() { *exit_code = Send(*opt); });
 }

@@ -173,7 +173,9 @@ bool RunOnce(const std::string& scene, const Session& session, double seconds, b
              int threads, int lead, double step_budget, bool skip_late_solves, bool trace, const std::string& view_address,
              RunResult* out, std::string* error) {
   auto sim = std::make_unique<TrackedSim>();
-  if (!sim->Load(scene, error, SyntheticSizing())) return false;
+  tracking::SyntheticHand aimed;  // the session's, already made: only the scene's start pose matters here
+  std::string moved;
+  if (!LoadForSyntheticHand(scene, sim.get(), &aimed, &moved, error)) return false;
   World& w = sim->world();
   w.params.budget_may_skip_solve = skip_late_solves;
   const double dt = w.params.dt;
@@ -422,9 +424,10 @@ int RunBenchRealtime(const BenchOptions& opt) {
   // the synthetic hand the scene's tracker follows (the whole hand for a tracked hand)
   tracking::SyntheticHand hand;
   {
-    Scene parsed;
-    std::vector<SceneError> errors;
-    if (LoadScene(scene, &parsed, &errors)) hand = tracking::SyntheticHandFor(parsed.tracker);
+    TrackedSim aimed;
+    std::string moved, ignored;  // a scene that cannot load fails in RunOnce, with its error
+    if (LoadForSyntheticHand(scene, &aimed, &hand, &moved, &ignored) && !moved.empty() && !opt.json)
+      std::printf("%s\n", moved.c_str());
     hand.pinch = opt.pinch && hand.whole_hand;
   }
   const Session session = MakeSession(seconds, hand);

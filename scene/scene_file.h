@@ -142,6 +142,9 @@ void AddTrackedHandTargets(Scene* s, std::vector<SceneError>* errors);
 /// passing the tracker's checks (MapFrame/JudgeFrame) and the scene's capsule limits
 /// (lengths 5 mm to 12 cm, radius 2 mm to 3 cm); else false with why not.
 bool SizeHandFromFrame(const tracking::DTrackFrame& frame, Scene* s, std::string* why);
+/// Puts the scene's tracked hand at another start pose and start flexions (the
+/// segment bodies with it), before the scene is built.
+void PlaceTrackedHand(Scene* s, const Pose& start, const Vec3& flexion);
 /// The tracked hand's fingers (core Finger, one per finger, carrying its phalanx
 /// bodies) and the palm carrying the hand, once the bodies are in the world.
 void AddTrackedFingers(const Scene& scene, World& w);

@@ -277,6 +277,16 @@ bool SizeHandFromFrame(const tracking::DTrackFrame& frame, Scene* s, std::string
   return true;
 }
 
+void PlaceTrackedHand(Scene* s, const Pose& start, const Vec3& flexion) {
+  SceneTrackedHand& th = s->tracked_hand;
+  if (!th.enabled) return;
+  th.start = start;
+  th.start_flexion = flexion;
+  ShapePhalanges(s);
+  for (SceneBody& b : s->bodies)
+    if (b.spec.name == "palm") b.spec.pose = th.start * th.model.palm;
+}
+
 void AddTrackedHandTargets(Scene* s, std::vector<SceneError>* errors) {
   const SceneTrackedHand& th = s->tracked_hand;
   tracking::TrackerConfig& c = s->tracker;

@@ -1,6 +1,7 @@
 #include "session/tracked_sim.h"
 
 #include <cstdio>
+#include <limits>
 
 #include "tracking/hand_mapping.h"
 #include "tracking/synthetic_hand.h"
@@ -67,7 +68,8 @@ bool SizeTrackedHand(Scene* s, const SizingFeed& feed, std::string* note, std::s
   return false;
 }
 
-bool TrackedSim::Load(const std::string& path, std::string* error, const SizingFeed& sizing) {
+bool TrackedSim::Load(const std::string& path, std::string* error, const SizingFeed& sizing,
+                      const std::function<void(Scene*)>& adjust) {
   Scene scene;
   std::vector<SceneError> errors;
   if (!LoadScene(path, &scene, &errors)) {
@@ -92,6 +94,7 @@ bool TrackedSim::Load(const std::string& path, std::string* error, const SizingF
     }
     if (!SizeTrackedHand(&scene, sizing, &sizing_note_, error)) return false;
   }
+  if (adjust) adjust(&scene);
   // the scene's own checks come first, as every command that builds it gives them
   scene_ = std::make_unique<BuiltScene>();
   if (!BuildScene(scene, scene_.get(), error)) return false;
@@ -181,6 +184,33 @@ void TrackedSim::HudText(char* buf, size_t size) const {
   }
 }
 
+bool TrackedSim::GraspObject(tracking::GraspObject* out) const {
+  const int i = scene_->tracked_body;
+  if (i < 0) return false;
+  const Body& b = world().bodies[static_cast<size_t>(i)];
+  const std::vector<Vec3>& points = b.geometry.cloud.positions;
+  if (points.empty()) return false;
+  Vec3 low = Vec3::Constant(std::numeric_limits<double>::infinity()), high = -low;
+  Vec3 body_low = low, body_high = high;
+  for (const Vec3& p : points) {
+    const Vec3 room = b.pose.Apply(p);
+    low = low.cwiseMin(room);
+    high = high.cwiseMax(room);
+    body_low = body_low.cwiseMin(p);
+    body_high = body_high.cwiseMax(p);
+  }
+  out->low = low;
+  out->high = high;
+  out->shape = b.geometry.shape;
+  out->pose = b.pose;
+  if (out->shape.type == EShape::Mesh) {
+    out->shape.type = EShape::Box;
+    out->shape.half_extents = 0.5 * (body_high - body_low);
+    out->pose.t = b.pose.Apply(0.5 * (body_low + body_high));
+  }
+  return true;
+}
+
 void TrackedSim::Step() {
   World& w = world();
   if (!scene_->script.empty()) scene_->script.Apply(w, w.time + w.params.dt);
@@ -188,10 +218,52 @@ void TrackedSim::Step() {
   w.Step();
 }
 
-bool SyntheticDrive::Load(const std::string& path, std::string* error) {
-  if (!sim_.Load(path, error, SyntheticSizing())) return false;
-  hand_ = tracking::SyntheticHandFor(sim_.config());
+namespace {
+
+constexpr double kOpenFlexion[3] = {0.0, 0.35, 0.15};  // the synthetic whole hand's, open
+
+// the scene's start pose is the synthetic hand's first one (within 5 mm and 5 degrees,
+// the start flexions within 0.01 rad of the open hand's)
+bool StartsWhereTheHandDoes(const World& w, const Pose& first) {
+  const double angle = Eigen::AngleAxisd(w.hand.pose.R.transpose() * first.R).angle();
+  if ((w.hand.pose.t - first.t).norm() > 5e-3 || angle > 5.0 * M_PI / 180.0) return false;
+  for (const Finger& f : w.hand.fingers)
+    for (int j = 0; j < 3; ++j)
+      if (std::abs(f.q[j + 1] - kOpenFlexion[j]) > 0.01) return false;
   return true;
+}
+
+}  // namespace
+
+bool LoadForSyntheticHand(const std::string& path, TrackedSim* sim, tracking::SyntheticHand* hand, std::string* moved,
+                          std::string* error) {
+  moved->clear();
+  if (!sim->Load(path, error, SyntheticSizing())) return false;
+  tracking::GraspObject object;
+  *hand = sim->GraspObject(&object) ? tracking::SyntheticHandFor(sim->config(), object)
+                                    : tracking::SyntheticHandFor(sim->config());
+  const World& w = sim->world();
+  if (!hand->whole_hand || w.hand.fingers.empty()) return true;
+  Pose first;
+  TrackedFinger fingers[kHandMaxFingers];
+  hand->WholeHandPose(0.0, &first, fingers);
+  if (StartsWhereTheHandDoes(w, first)) return true;
+  const auto start_there = [&](Scene* s) {
+    PlaceTrackedHand(s, first, Vec3(kOpenFlexion[0], kOpenFlexion[1], kOpenFlexion[2]));
+  };
+  if (!sim->Load(path, error, SyntheticSizing(), start_there)) return false;
+  const Vec3 deg = (180.0 / M_PI) * first.R.eulerAngles(2, 1, 0);
+  char buf[256];
+  std::snprintf(buf, sizeof buf,
+                "the synthetic hand starts at position_m [%.4f, %.4f, %.4f], rotation_deg [%.1f, %.1f, %.1f], "
+                "start_flexion_rad [0, 0.35, 0.15], not at the scene's hand pose",
+                first.t.x(), first.t.y(), first.t.z(), deg.z(), deg.y(), deg.x());
+  *moved = buf;
+  return true;
+}
+
+bool SyntheticDrive::Load(const std::string& path, std::string* error) {
+  return LoadForSyntheticHand(path, &sim_, &hand_, &moved_, error);
 }
 
 void SyntheticDrive::Step() {

@@ -53,8 +53,10 @@ std::string NothingDrivenText(const DatagramTally& t, const tracking::TrackerCon
 class TrackedSim {
  public:
   /// Loads and builds the scene; it must have a tracker section. A hand with
-  /// `sizes: tracker` is sized from `sizing` first (refused without one).
-  bool Load(const std::string& path, std::string* error, const SizingFeed& sizing = nullptr);
+  /// `sizes: tracker` is sized from `sizing` first (refused without one); `adjust`,
+  /// when given, changes the scene before it is built.
+  bool Load(const std::string& path, std::string* error, const SizingFeed& sizing = nullptr,
+            const std::function<void(Scene*)>& adjust = nullptr);
 
   /// How a `sizes: tracker` hand was sized (SizeTrackedHand), or "".
   const std::string& sizing_note() const { return sizing_note_; }
@@ -81,6 +83,11 @@ class TrackedSim {
   /// middle lost" (no allocation: writes into buf).
   void HudText(char* buf, size_t size) const;
 
+  /// The scene's tracked body (BuiltScene::tracked_body) as an object for the
+  /// synthetic hand to grasp: its shape (a mesh: the box bounding its points) and its
+  /// points' bounding box in the room; false when the scene has none.
+  bool GraspObject(tracking::GraspObject* out) const;
+
   /// Steps on `threads` threads from now on, the caller's included (1: on the
   /// caller's alone): a WorkerPool (session/worker_pool.h) started by the calling
   /// thread, with its scheduling. The results are the same either way.
@@ -96,8 +103,18 @@ class TrackedSim {
   tracking::TargetFollower follower_;
 };
 
+/// Loads a tracked scene to be driven by the synthetic hand, into *sim and *hand: the
+/// hand its tracker follows (tracking::SyntheticHandFor), aimed at the scene's tracked
+/// body. A whole hand whose first pose is not the scene's start pose (a scene written
+/// for another grasp: more than 5 mm or 5 degrees off, or other start flexions) starts
+/// at that first pose instead, as if the scene had given it, so that the hand does not
+/// sweep through the room to it; *moved then says so ("" otherwise).
+bool LoadForSyntheticHand(const std::string& path, TrackedSim* sim, tracking::SyntheticHand* hand, std::string* moved,
+                          std::string* error);
+
 /// A tracked scene driven in simulated time by the synthetic hand its tracker
-/// follows (tracking::SyntheticHandFor: a whole hand's power grasp, with its side),
+/// follows (tracking::SyntheticHandFor: a whole hand's power grasp, with its side,
+/// aimed at the scene's tracked body),
 /// the hand's datagrams at 100 Hz, a `sizes: tracker` hand sized by its first
 /// (`bench step --scene`, `validate whole-hand`).
 class SyntheticDrive {
@@ -107,6 +124,8 @@ class SyntheticDrive {
   World& world() { return sim_.world(); }
   /// the hand (set `pinch`, `hold_s` and `duration_s` before the first step)
   tracking::SyntheticHand& hand() { return hand_; }
+  /// LoadForSyntheticHand's note when the hand starts elsewhere than the scene says, or ""
+  const std::string& moved() const { return moved_; }
   /// the next datagram when its time has come, then one step
   void Step();
   /// steps until the world's time reaches t
@@ -115,6 +134,7 @@ class SyntheticDrive {
  private:
   TrackedSim sim_;
   tracking::SyntheticHand hand_;
+  std::string moved_;
   double next_sample_ = 0.0;
   uint32_t frame_ = 1;
 };

@@ -3,48 +3,52 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 
 namespace gs::tracking {
 namespace {
 
 struct Key {
-  double t, open, height;  // open: 1 open, 0 closed; height: mm above the grasp height
+  double t, open, approach, lift;  // open: 1 open, 0 closed; mm back along the palm's normal and up from the grasp
 };
 
-// the open factor and height at time t, smoothstepped between keys
-void Interpolate(const Key* keys, int n, double t, double* open, double* height) {
-  if (t <= keys[0].t) {
-    *open = keys[0].open;
-    *height = keys[0].height;
+// the open factor, approach and lift at time t, smoothstepped between keys
+void Interpolate(const Key* keys, int n, double t, double* open, double* approach, double* lift) {
+  const Key* k = &keys[n - 1];
+  if (t <= keys[0].t) k = &keys[0];
+  for (int i = 1; i < n && k == &keys[n - 1]; ++i) {
+    if (t > keys[i].t) continue;
+    double s = (t - keys[i - 1].t) / (keys[i].t - keys[i - 1].t);
+    s = s * s * (3 - 2 * s);  // smoothstep: no velocity jumps at the keys
+    const Key& a = keys[i - 1];
+    const Key& b = keys[i];
+    *open = a.open + s * (b.open - a.open);
+    *approach = a.approach + s * (b.approach - a.approach);
+    *lift = a.lift + s * (b.lift - a.lift);
     return;
   }
-  for (int i = 1; i < n; ++i) {
-    if (t <= keys[i].t) {
-      double s = (t - keys[i - 1].t) / (keys[i].t - keys[i - 1].t);
-      s = s * s * (3 - 2 * s);  // smoothstep: no velocity jumps at the keys
-      *open = keys[i - 1].open + s * (keys[i].open - keys[i - 1].open);
-      *height = keys[i - 1].height + s * (keys[i].height - keys[i - 1].height);
-      return;
-    }
-  }
-  *open = keys[n - 1].open;
-  *height = keys[n - 1].height;
+  *open = k->open;
+  *approach = k->approach;
+  *lift = k->lift;
 }
 
-// reach down open, close, settle, lift, hold, release, rise
-void Phase(const SyntheticHand& h, double t, double* open, double* height) {
+// Reach open, close, settle, lift, hold, release, back off: the approach along the
+// palm's normal (up for a grasp from above), the lift up. Released, a hand from above
+// rises to reach_mm over the grasp; one from the side backs off reach_mm, still lifted.
+void Phase(const SyntheticHand& h, double t, double* open, double* approach, double* lift) {
+  const double r = h.reach_mm, l = h.lift_mm;
   if (h.whole_hand) {
-    const double e = h.hold_s;
-    const Key keys[] = {{0.0, 1, h.reach_mm},      {0.2, 1, h.reach_mm},      {0.8, 1, 0.0},
-                        {1.2, 0, 0.0},             {1.4, 0, 0.0},             {2.0, 0, h.lift_mm},
-                        {2.0 + e, 0, h.lift_mm},   {2.3 + e, 1, h.lift_mm},   {2.8 + e, 1, h.reach_mm}};
-    Interpolate(keys, sizeof(keys) / sizeof(keys[0]), t, open, height);
+    const double e = h.hold_s, back = h.side_grasp && !h.pinch ? r : r - l;
+    const Key keys[] = {{0.0, 1, r, 0.0},     {0.2, 1, r, 0.0},     {0.8, 1, 0.0, 0.0},
+                        {1.2, 0, 0.0, 0.0},   {1.4, 0, 0.0, 0.0},   {2.0, 0, 0.0, l},
+                        {2.0 + e, 0, 0.0, l}, {2.3 + e, 1, 0.0, l}, {2.8 + e, 1, back, l}};
+    Interpolate(keys, sizeof(keys) / sizeof(keys[0]), t, open, approach, lift);
     return;
   }
-  const Key keys[] = {{0.0, 1, h.reach_mm},        {0.2, 1, h.reach_mm},        {0.8, 1, 0.0},
-                      {1.1, 0, 0.0},               {1.3, 0, 0.0},               {1.9, 0, h.lift_mm},
-                      {2.3, 0, h.lift_mm},         {2.5, 1, h.lift_mm},         {h.duration_s, 1, h.reach_mm}};
-  Interpolate(keys, sizeof(keys) / sizeof(keys[0]), t, open, height);
+  const Key keys[] = {{0.0, 1, r, 0.0},   {0.2, 1, r, 0.0},   {0.8, 1, 0.0, 0.0},
+                      {1.1, 0, 0.0, 0.0}, {1.3, 0, 0.0, 0.0}, {1.9, 0, 0.0, l},
+                      {2.3, 0, 0.0, l},   {2.5, 1, 0.0, l},   {h.duration_s, 1, r - l, l}};
+  Interpolate(keys, sizeof(keys) / sizeof(keys[0]), t, open, approach, lift);
 }
 
 // flexions (root, middle-inner, outer-middle) of a planar two-phalanx chain whose
@@ -84,34 +88,141 @@ namespace {
 struct Grasp {
   Vec3 box;                     ///< the box's centre
   Vec3 thumb;                   ///< the thumb's middle joint, closed
-  double half = 0.0, squeeze = 0.0;
-  double Lid() const { return box.z() - half; }
+  double half = 0.0, height = 0.0, squeeze = 0.0;  ///< half extents along the hand's x and z
+  bool shifted = false;         ///< moved back within the thumb's reach
+  double Lid() const { return box.z() - height; }
 };
 
+// the thumb's plane (its root frame's x-z plane) at the hand frame's x: its y
+double ThumbPlaneY(const HandFingerModel& th, double x) {
+  const Vec3 along = th.root.R.col(0);
+  return th.root.t.y() + (x - th.root.t.x()) * along.y() / along.x();
+}
+
+// the largest x (hand frame) at which the thumb's middle joint reaches depth z in its
+// plane: its two inner phalanges stretched from its root
+double ThumbReach(const HandFingerModel& th, double z) {
+  const Vec3 along = th.root.R.col(0);
+  const double k = along.y() / along.x(), reach = th.length[1] + th.length[2], dz = z - th.root.t.z();
+  return th.root.t.x() + std::sqrt(std::max(0.0, reach * reach - dz * dz) / (1.0 + k * k));
+}
+
 // Power grasp: the lid 1 mm under the palm, the far face where the fingers' middle
-// joints (x = 9.5 cm) put their phalanges `squeeze` into it. Pinch: the lid 5 mm under
+// joints (x = 9.5 cm) put their phalanges `squeeze` into it, unless the thumb's
+// middle joint could not reach the near face there: then the box goes back toward
+// the thumb (`shifted`; the fingers must then wrap it). Pinch: the lid 5 mm under
 // the palm, the box centred between the thumb's and the index's pads. The thumb's
-// middle joint lies in its plane (the root frame's x-z plane), `squeeze` into the near face.
-Grasp GraspGeometry(const HandModel& m, bool pinch, double half, double squeeze) {
+// middle joint lies in its plane (the root frame's x-z plane), `squeeze` into the
+// near face, 4 mm under the lid (a curved object: a quarter of its half height
+// above its centre; WrapThumb finds its surface there).
+Grasp GraspGeometry(const HandModel& m, bool pinch, double half, double height, double squeeze, bool curved) {
   Grasp g;
   g.half = half;
+  g.height = height;
   g.squeeze = squeeze;
   const double palm = m.palm.t.z() + 0.5 * m.palm_size.z();
-  g.box = pinch ? Vec3(0.05, 0.0, palm + 5e-3 + half)
-                : Vec3(0.095 - half - m.finger[1].radius + squeeze, 0.0, palm + 1e-3 + half);
+  g.box = pinch ? Vec3(0.05, 0.0, palm + 5e-3 + height)
+                : Vec3(0.095 - half - m.finger[1].radius + squeeze, 0.0, palm + 1e-3 + height);
   const HandFingerModel& th = m.finger[0];
-  const double x = g.box.x() - half - th.radius + squeeze;
-  const Vec3 along = th.root.R.col(0);
-  const double y = th.root.t.y() + (x - th.root.t.x()) * along.y() / along.x();
+  const double z = pinch ? g.Lid() + 8e-3 : (curved ? g.box.z() - 0.25 * height : g.Lid() + 4e-3);
+  double x = g.box.x() - half - th.radius + squeeze;
+  const double reach = ThumbReach(th, z);
+  if (!pinch && x > reach) {
+    g.box.x() -= x - reach;
+    x = reach;
+    g.shifted = true;
+  }
+  const double y = ThumbPlaneY(th, x);
   if (pinch) g.box.y() = 0.5 * (y + m.finger[1].root.t.y());
-  g.thumb = Vec3(x, y, g.Lid() + (pinch ? 8e-3 : 4e-3));
+  g.thumb = Vec3(x, y, z);
   return g;
 }
 
-// the four fingers hook over the far face; open, they stretch forward
-void PowerFingers(const HandModel& m, const Pose& hand, double open, TrackedFinger* out) {
-  const Vec3 closed(0.0, 0.5 * M_PI, 0.0), opened(0.0, 0.35, 0.15);
-  for (int f = 1; f < m.fingers; ++f) out[f] = PoseFinger(m, f, hand, open * opened + (1.0 - open) * closed);
+// The hand's orientation for a grasp: palm down, fingers along the room's +x (from
+// above); or palm toward the room's +x, fingers along -y and the thumb up (from the side)
+Mat3 GraspRotation(bool side) {
+  if (!side) return Eigen::AngleAxisd(M_PI, Vec3::UnitX()).toRotationMatrix();
+  Mat3 R;
+  R.col(0) = -Vec3::UnitY();
+  R.col(1) = -Vec3::UnitZ();
+  R.col(2) = Vec3::UnitX();
+  return R;
+}
+
+// the hand's pose (room, m) that puts the grasp's box centre at `center`, `reach`
+// back along the palm's normal (the approach) and `lift` up
+Pose GraspHandPose(const Grasp& g, bool side, const Vec3& center, double reach, double lift) {
+  Pose hand;
+  hand.R = GraspRotation(side);
+  hand.t = center - reach * hand.R.col(2) + Vec3(0, 0, lift) - hand.R * g.box;
+  return hand;
+}
+
+// how far a phalanx's capsule (axis a-b, radius r) goes into the object (m; negative:
+// its gap), the axis sampled at 9 points; `body` is the object's pose in the chain's frame
+double CapsuleDepth(const ShapeDesc& shape, const Pose& body, const Vec3& a, const Vec3& b, double r) {
+  double least = std::numeric_limits<double>::infinity();
+  for (int i = 0; i <= 8; ++i) {
+    const Vec3 p = a + (i / 8.0) * (b - a);
+    least = std::min(least, AnalyticDistance(shape, body.ApplyInverse(p)));
+  }
+  return r - least;
+}
+
+// Finger f wrapped on the object (`body`: its pose in the hand frame): from the open
+// flexions, each joint, root first, closes until a phalanx it moves presses `squeeze`
+// into the surface (or the joint reaches its anatomical range)
+Vec3 WrapFinger(const HandModel& m, int f, const ShapeDesc& shape, const Pose& body, const Vec3& open, double squeeze) {
+  constexpr double kMax[3] = {1.6, 1.8, 1.5};  // inside the scene's limits (scene/scene_hand.cpp)
+  constexpr double kStep = 0.004;              // rad: 0.2 mm at a 5 cm lever
+  Vec3 q = open;
+  for (int j = 0; j < 3; ++j) {
+    for (;;) {
+      const FingerChain c = ChainFromTip(PoseFinger(m, f, Pose(), q));
+      double depth = -std::numeric_limits<double>::infinity();
+      // joint j (root, middle-inner, outer-middle) moves phalanges 2 - j .. 0 (inner .. outer)
+      for (int k = 0; k <= 2 - j; ++k)
+        depth = std::max(depth, CapsuleDepth(shape, body, c.joint[k + 1], c.joint[k], m.finger[f].radius));
+      if (!(depth < squeeze) || q[j] >= kMax[j]) break;
+      q[j] = std::min(q[j] + kStep, kMax[j]);
+    }
+  }
+  return q;
+}
+
+// The thumb's middle joint on the object's near side, in its plane at the grasp's
+// depth (GraspGeometry), `squeeze` into it (hand frame); the grasp's point when the
+// plane misses the object there
+Vec3 WrapThumb(const HandModel& m, const Grasp& g, const ShapeDesc& shape, const Pose& body) {
+  const HandFingerModel& th = m.finger[0];
+  const double z = g.thumb.z();
+  const auto at = [&](double x) { return Vec3(x, ThumbPlaneY(th, x), z); };
+  const auto gap = [&](double x) { return AnalyticDistance(shape, body.ApplyInverse(at(x))) - (th.radius - g.squeeze); };
+  double out = g.box.x() - g.half - th.radius - 0.02, in = g.box.x();
+  if (!(gap(out) > 0.0 && gap(in) < 0.0)) return g.thumb;
+  for (int i = 0; i < 40; ++i) (gap(0.5 * (out + in)) > 0.0 ? out : in) = 0.5 * (out + in);
+  return at(0.5 * (out + in));
+}
+
+bool Curved(EShape s) {
+  return s == EShape::Sphere || s == EShape::Ellipsoid || s == EShape::Capsule || s == EShape::Cylinder;
+}
+
+// the pose mirrored in the room's y about the plane y = y0 (frames conjugated: M R M is a rotation)
+Pose MirroredY(const Pose& p, double y0) {
+  const Mat3 mirror = Vec3(1.0, -1.0, 1.0).asDiagonal();
+  return Pose{mirror * p.R * mirror, Vec3(p.t.x(), 2.0 * y0 - p.t.y(), p.t.z())};
+}
+
+constexpr double kOpenFlexion[3] = {0.0, 0.35, 0.15};
+
+// the four fingers hook over the far face (or wrap the object: `wrapped`); open, they stretch forward
+void PowerFingers(const HandModel& m, const Pose& hand, double open, const Vec3* wrapped, TrackedFinger* out) {
+  const Vec3 opened(kOpenFlexion[0], kOpenFlexion[1], kOpenFlexion[2]);
+  for (int f = 1; f < m.fingers; ++f) {
+    const Vec3 closed = wrapped ? wrapped[f] : Vec3(0.0, 0.5 * M_PI, 0.0);
+    out[f] = PoseFinger(m, f, hand, open * opened + (1.0 - open) * closed);
+  }
 }
 
 // the index's outer phalanx on the far face, its middle joint 8 mm over the lid; the
@@ -124,7 +235,7 @@ void PinchFingers(const HandModel& m, const Pose& hand, const Grasp& g, double o
   out[1] = PoseFinger(m, 1, hand, ReachFlexions(ix, ix.root.ApplyInverse(dip), (1.0 - open) * 0.5 * M_PI + open * 0.35));
 }
 
-// the thumb's middle joint on the near face, its outer phalanx down along it
+// the thumb's middle joint on the near face (g.thumb), its outer phalanx down along it
 TrackedFinger Thumb(const HandModel& m, const Pose& hand, const Grasp& g, bool pinch, double open) {
   const HandFingerModel& th = m.finger[0];
   const Vec3 ip_open = pinch ? g.thumb + Vec3(-0.03, 0.0, -0.006) : Vec3(-0.015, 0.0, g.Lid() - 6e-3);
@@ -134,42 +245,90 @@ TrackedFinger Thumb(const HandModel& m, const Pose& hand, const Grasp& g, bool p
 
 }  // namespace
 
-void SyntheticHand::WholeHandPose(double t, Pose* hand, TrackedFinger* out) const {
-  double open = 0, height = 0;
-  Phase(*this, t, &open, &height);
-  HandModel m = AverageAdultHand(fingers, true);
+namespace {
+
+HandModel ScaledHand(const SyntheticHand& h) {
+  HandModel m = AverageAdultHand(h.fingers, true);
   for (HandFingerModel& f : m.finger) {
-    for (double& l : f.length) l *= size_scale;
-    f.radius *= size_scale;
+    for (double& l : f.length) l *= h.size_scale;
+    f.radius *= h.size_scale;
   }
-  const Grasp g = GraspGeometry(m, pinch, 1e-3 * box_half_mm, 1e-3 * squeeze_mm);
-  // palm down, fingers along the room's +x, the box where the grasp wants it
-  hand->R = Eigen::AngleAxisd(M_PI, Vec3::UnitX()).toRotationMatrix();
-  hand->t = 1e-3 * box_center_mm + Vec3(0, 0, 1e-3 * height) - hand->R * g.box;
+  return m;
+}
+
+// the grasp of the hand's object: from above, its x and z extents; from the side
+// (the hand's x along the room's -y, its z along x), its y and x ones
+Grasp GraspFor(const SyntheticHand& h, const HandModel& m, bool curved) {
+  const bool side = h.side_grasp && !h.pinch;
+  return GraspGeometry(m, h.pinch, 1e-3 * (side ? h.box_half_width_mm : h.box_half_mm),
+                       1e-3 * (side ? h.box_half_mm : h.box_half_height_mm), 1e-3 * h.squeeze_mm, curved);
+}
+
+}  // namespace
+
+void SyntheticHand::AimAt(const GraspObject& o) {
+  const Vec3 center = 0.5 * (o.low + o.high), half = 0.5 * (o.high - o.low);
+  box_center_mm = 1e3 * center;
+  box_half_mm = 1e3 * half.x();
+  box_half_width_mm = 1e3 * half.y();
+  box_half_height_mm = 1e3 * half.z();
+  object = o;
+  const bool curved = Curved(o.shape.type);
+  side_grasp = whole_hand && !pinch && curved && half.z() > 1.2 * std::max(half.x(), half.y());
+  const HandModel m = ScaledHand(*this);
+  Grasp g = GraspFor(*this, m, curved);
+  wrap = whole_hand && !pinch && (curved || g.shifted);
+  if (!wrap) return;
+  // the right hand's grasp (a left one is its mirror image: WholeHandPose), on the
+  // object mirrored for a left hand
+  const Pose room = right ? o.pose : MirroredY(o.pose, center.y());
+  Pose body;
+  for (int i = 0; i < 4; ++i) {
+    // where the thumb finds the surface may lie past its reach (a curved side is
+    // nearer the centre than the bounding box's): the object goes back toward it
+    body = GraspHandPose(g, side_grasp, center, 0.0, 0.0).Inverse() * room;
+    wrap_thumb = WrapThumb(m, g, o.shape, body);
+    const double over = wrap_thumb.x() - ThumbReach(m.finger[0], wrap_thumb.z());
+    if (over <= 1e-6) break;
+    g.box.x() -= over;
+    g.thumb.x() -= over;
+  }
+  wrap_box = g.box;
+  const Vec3 opened(kOpenFlexion[0], kOpenFlexion[1], kOpenFlexion[2]);
+  for (int f = 1; f < m.fingers; ++f) wrap_flexion[f] = WrapFinger(m, f, o.shape, body, opened, g.squeeze);
+}
+
+void SyntheticHand::WholeHandPose(double t, Pose* hand, TrackedFinger* out) const {
+  double open = 0, approach = 0, lift = 0;
+  Phase(*this, t, &open, &approach, &lift);
+  const HandModel m = ScaledHand(*this);
+  const bool wrapped = wrap && !pinch;
+  Grasp g = GraspFor(*this, m, wrapped && Curved(object.shape.type));
+  if (wrapped) {
+    g.box = wrap_box;
+    g.thumb = wrap_thumb;
+  }
+  *hand = GraspHandPose(g, side_grasp && !pinch, 1e-3 * box_center_mm, 1e-3 * approach, 1e-3 * lift);
   if (pinch)
     PinchFingers(m, *hand, g, open, out);
   else
-    PowerFingers(m, *hand, open, out);
+    PowerFingers(m, *hand, open, wrapped ? wrap_flexion : nullptr, out);
   out[0] = Thumb(m, *hand, g, pinch, open);
   if (!right) {
-    // the mirror image in the room's y: positions reflected, frames conjugated (M R M
-    // is a rotation); the hand model's left hand is the right one mirrored in the
-    // hand frame's y, which this gives
-    const Mat3 mirror = Vec3(1.0, -1.0, 1.0).asDiagonal();
-    const auto reflect = [&](Pose* p) {
-      p->t = mirror * p->t;
-      p->R = mirror * p->R * mirror;
-    };
-    reflect(hand);
-    // (the chain back from a tip bends about its phalanges' y, which the mirror
-    // reverses twice: the same angles give the mirrored chain)
-    for (int f = 0; f < fingers; ++f) reflect(&out[f].tip);
+    // the mirror image in the room's y about the box's centre; the hand model's left
+    // hand is the right one mirrored in the hand frame's y, which this gives (the
+    // chain back from a tip bends about its phalanges' y, which the mirror reverses
+    // twice: the same angles give the mirrored chain)
+    const double y0 = 1e-3 * box_center_mm.y();
+    *hand = MirroredY(*hand, y0);
+    for (int f = 0; f < fingers; ++f) out[f].tip = MirroredY(out[f].tip, y0);
   }
 }
 
 void SyntheticHand::Tips(double t, Vec3* tips) const {
-  double open = 0, height = 0;
-  Phase(*this, t, &open, &height);
+  double open = 0, approach = 0, lift = 0;
+  Phase(*this, t, &open, &approach, &lift);
+  const double height = approach + lift;  // the fingertips come from above
   const double x = box_half_mm + tip_radius_mm - squeeze_mm + open * open_mm;
   const double z = box_center_mm.z() + height;
   const Vec3& c = box_center_mm;
@@ -269,6 +428,12 @@ SyntheticHand SyntheticHandFor(const TrackerConfig& c) {
   }
   SyntheticHand h;
   h.fingers = fingers > 3 ? 5 : 3;
+  return h;
+}
+
+SyntheticHand SyntheticHandFor(const TrackerConfig& c, const GraspObject& object) {
+  SyntheticHand h = SyntheticHandFor(c);
+  h.AimAt(object);
   return h;
 }
 

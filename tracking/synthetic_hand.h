@@ -12,22 +12,40 @@
 // the faces, lifts the box `lift_mm`, holds it `hold_s`, opens and rises. With
 // `pinch`, a precision pinch instead: the palm 5 mm over the lid, the index's and
 // the thumb's outer phalanges on the far and near faces, the other fingers stretched.
-// A left whole hand is the right one mirrored in the room's y (the box is centred on
-// y = 0): the same grasp, the thumb on the other side.
+// A left whole hand is the right one mirrored in the room's y about the box's
+// centre: the same grasp, the thumb on the other side.
+//
+// Aimed at another object (AimAt: SyntheticHandFor does it for a scene's tracked
+// body), the hand grasps it where it lies and as large as it is: the fingertips
+// close on the sides of its bounding box along x; the whole hand's palm comes down
+// to its top. A box (or a mesh, taken as its bounding box) is grasped on its faces
+// as above; a curved one (sphere, ellipsoid, capsule, cylinder) is wrapped: each
+// finger closes joint by joint, root first, until its phalanges press `squeeze_mm`
+// into the surface, and the thumb's middle joint presses on its near side.
 #pragma once
 
 #include <cstdint>
 #include <string>
 
 #include "core/hand.h"
+#include "core/sampling.h"
 #include "core/types.h"
 #include "tracking/tracker_config.h"
 
 namespace gs::tracking {
 
+/// An object for the synthetic hand to grasp, in the room (m).
+struct GraspObject {
+  ShapeDesc shape;               ///< in its body frame; a mesh is grasped as its bounding box
+  Pose pose;                     ///< the body frame in the room
+  Vec3 low = Vec3::Zero(), high = Vec3::Zero();  ///< its bounding box along the room's axes
+};
+
 struct SyntheticHand {
-  Vec3 box_center_mm = Vec3(0, 0, 30);
-  double box_half_mm = 30.0;
+  Vec3 box_center_mm = Vec3(0, 0, 30);  ///< the grasped object's bounding-box centre
+  double box_half_mm = 30.0;            ///< its half extent along the room's x (the faces closed on)
+  double box_half_width_mm = 30.0;      ///< along y
+  double box_half_height_mm = 30.0;     ///< and along z: the whole hand's palm comes down to its top
   double tip_radius_mm = 8.0;
   double squeeze_mm = 4.0;     ///< closed targets lie this far inside the faces
   double open_mm = 24.0;       ///< extra distance from the faces when open
@@ -40,6 +58,18 @@ struct SyntheticHand {
   bool pinch = false;          ///< whole hand: a precision pinch (thumb and index tips) instead of the power grasp
   double size_scale = 1.0;     ///< whole hand: the average adult hand's phalanx lengths and fingertip radii times this
   bool right = true;           ///< whole hand: false sends a left hand (gl's lr 0), the right one mirrored in the room's y
+  /// whole hand: a curved object to wrap (AimAt), in the room (m); unset: a box
+  bool wrap = false;
+  /// whole hand: a tall curved object is grasped from the side (AimAt)
+  bool side_grasp = false;
+  GraspObject object;
+  /// the wrap's closed flexions per finger (root, middle-inner, outer-middle), set by AimAt
+  Vec3 wrap_flexion[kHandMaxFingers] = {Vec3::Zero(), Vec3::Zero(), Vec3::Zero(), Vec3::Zero(), Vec3::Zero()};
+  Vec3 wrap_thumb = Vec3::Zero();  ///< the wrap's thumb middle joint, closed (hand frame, m)
+  Vec3 wrap_box = Vec3::Zero();    ///< the wrapped object's bounding-box centre (hand frame, m)
+
+  /// Grasps `o` where it lies (see above); call after choosing the hand (fingers, side, pinch, size_scale).
+  void AimAt(const GraspObject& o);
 
   /// A whole hand of `fingers` fingers (duration_s set from hold_s).
   static SyntheticHand WholeHand(int fingers, double hold_s);
@@ -57,7 +87,9 @@ struct SyntheticHand {
 /// The synthetic hand that drives a scene's tracker: the whole hand (power grasp)
 /// when it follows a tracked hand's segments, with its number of fingers and its
 /// side (a left hand for a scene's `side: left`); else
-/// the fingertips' hand, with five fingers when it follows ring or little.
+/// the fingertips' hand, with five fingers when it follows ring or little. With an
+/// object (the scene's tracked body), aimed at it.
 SyntheticHand SyntheticHandFor(const TrackerConfig& c);
+SyntheticHand SyntheticHandFor(const TrackerConfig& c, const GraspObject& object);
 
 }  // namespace gs::tracking
