@@ -199,8 +199,6 @@ bool TrackedSim::GraspObject(tracking::GraspObject* out) const {
     body_low = body_low.cwiseMin(p);
     body_high = body_high.cwiseMax(p);
   }
-  out->low = low;
-  out->high = high;
   out->shape = b.geometry.shape;
   out->pose = b.pose;
   if (out->shape.type == EShape::Mesh) {
@@ -208,6 +206,19 @@ bool TrackedSim::GraspObject(tracking::GraspObject* out) const {
     out->shape.half_extents = 0.5 * (body_high - body_low);
     out->pose.t = b.pose.Apply(0.5 * (body_low + body_high));
   }
+  // an object placed just above a level table (within 5 mm) will rest on it when
+  // the hand arrives: grasped there
+  for (const Body& t : world().bodies) {
+    if (!t.geometry.is_plane || t.motion == EMotion::Free || t.pose.R.col(2).z() < 0.999) continue;
+    const double drop = low.z() - t.pose.t.z();
+    if (drop <= 0.0 || drop > 5e-3) continue;
+    low.z() -= drop;
+    high.z() -= drop;
+    out->pose.t.z() -= drop;
+    break;
+  }
+  out->low = low;
+  out->high = high;
   return true;
 }
 

@@ -85,7 +85,8 @@ class TrackedSim {
 
   /// The scene's tracked body (BuiltScene::tracked_body) as an object for the
   /// synthetic hand to grasp: its shape (a mesh: the box bounding its points) and its
-  /// points' bounding box in the room; false when the scene has none.
+  /// points' bounding box in the room, where it will rest when it starts up to 5 mm
+  /// above a level plane; false when the scene has none.
   bool GraspObject(tracking::GraspObject* out) const;
 
   /// Steps on `threads` threads from now on, the caller's included (1: on the
