@@ -199,7 +199,9 @@ void ValidateGrasp(const Grasp& g, bool two_pass, std::vector<ValidationResult>*
 
 std::vector<ValidationResult> ValidateWholeHand(const ValidationOptions&) {
   std::vector<ValidationResult> out;
-  const Grasp grasps[] = {{"pinch", "tracked_whole_hand.yaml", true}, {"power", "whole_hand_power_grasp.yaml", false}};
+  const Grasp grasps[] = {{"pinch", "tracked_whole_hand.yaml", true},
+                          {"power", "whole_hand_power_grasp.yaml", false},
+                          {"can", "whole_hand_can_grasp.yaml", false}};
   for (const Grasp& g : grasps)
     for (bool two_pass : {false, true}) {
       if (StopRequested()) return out;

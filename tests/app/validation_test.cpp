@@ -125,10 +125,10 @@ TEST(Validation, PaperGraspHoldsTheBox) {
 }
 
 TEST(Validation, WholeHandHoldsAtOnePercentAboveItsHoldingFrictionAndSlipsBelow) {
-  // the pinch and the power grasp of the tracked whole hand, both contact modes
+  // the pinch, the power grasp and the wrapped can of the tracked whole hand, both contact modes
   const auto v = ValidateWholeHand(Quick());
   ExpectAllPass(v);
-  for (const char* grasp : {"pinch", "power"})
+  for (const char* grasp : {"pinch", "power", "can"})
     for (const char* mode : {"one-pass", "two-pass"}) {
       const std::string g(grasp);
       const ValidationResult* hold = Find(v, "whole_hand_" + g + "_hold_" + mode, mode);
