@@ -273,6 +273,7 @@ void SyntheticHand::AimAt(const GraspObject& o) {
   box_half_width_mm = 1e3 * half.y();
   box_half_height_mm = 1e3 * half.z();
   object = o;
+  AimTips(o);
   const bool curved = Curved(o.shape.type);
   side_grasp = whole_hand && !pinch && curved && half.z() > 1.2 * std::max(half.x(), half.y());
   const HandModel m = ScaledHand(*this);
@@ -332,11 +333,37 @@ void SyntheticHand::Tips(double t, Vec3* tips) const {
   const double x = box_half_mm + tip_radius_mm - squeeze_mm + open * open_mm;
   const double z = box_center_mm.z() + height;
   const Vec3& c = box_center_mm;
-  tips[0] = Vec3(c.x() - x, c.y(), z);          // thumb
-  tips[1] = Vec3(c.x() + x, c.y() + 15.0, z);   // index
-  tips[2] = Vec3(c.x() + x, c.y() - 15.0, z);   // middle
+  const double opened = open * open_mm;
+  tips[0] = Vec3(c.x() - (tip_closed_mm[0] + opened), c.y(), z);         // thumb
+  tips[1] = Vec3(c.x() + tip_closed_mm[1] + opened, c.y() + 15.0, z);    // index
+  tips[2] = Vec3(c.x() + tip_closed_mm[2] + opened, c.y() - 15.0, z);    // middle
   tips[3] = Vec3(c.x() + x + 10.0, c.y() - 40.0, z + 25.0);  // ring, curled above
   tips[4] = Vec3(c.x() + x + 5.0, c.y() - 60.0, z + 35.0);   // little
+}
+
+namespace {
+
+// How far from the object's centre along the room's x (side -1 or +1), at y and z
+// off it (mm), a fingertip of radius r presses `squeeze` into its surface (mm): the
+// bounding box's side when that line misses the object
+double TipReach(const GraspObject& o, double side, double dy, double dz, double r, double squeeze, double half) {
+  const Vec3 center = 0.5 * (o.low + o.high);
+  const auto gap = [&](double s) {
+    const Vec3 p = center + 1e-3 * Vec3(side * s, dy, dz);
+    return 1e3 * AnalyticDistance(o.shape, o.pose.ApplyInverse(p)) - (r - squeeze);
+  };
+  double in = 0.0, out = half + r + 20.0;
+  if (!(gap(in) < 0.0 && gap(out) > 0.0)) return half + r - squeeze;
+  for (int i = 0; i < 50; ++i) (gap(0.5 * (in + out)) > 0.0 ? out : in) = 0.5 * (in + out);
+  return 0.5 * (in + out);
+}
+
+}  // namespace
+
+void SyntheticHand::AimTips(const GraspObject& o) {
+  const double dy[3] = {0.0, 15.0, -15.0}, side[3] = {-1.0, 1.0, 1.0};
+  for (int f = 0; f < 3; ++f)
+    tip_closed_mm[f] = TipReach(o, side[f], dy[f], 0.0, tip_radius_mm, squeeze_mm, box_half_mm);
 }
 
 Pose SyntheticHand::HandPose(double t) const {

@@ -17,8 +17,8 @@
 //
 // Aimed at another object (AimAt: SyntheticHandFor does it for a scene's tracked
 // body), the hand grasps it where it lies and as large as it is: the fingertips
-// close on the sides of its bounding box along x; the whole hand's palm comes down
-// to its top. A box (or a mesh, taken as its bounding box) is grasped on its faces
+// close along x at its centre's height until each presses `squeeze_mm` into its
+// surface; the whole hand's palm comes down to its top. A box (or a mesh, taken as its bounding box) is grasped on its faces
 // as above; a curved one (sphere, ellipsoid, capsule, cylinder) is wrapped: each
 // finger closes joint by joint, root first, until its phalanges press `squeeze_mm`
 // into the surface, and the thumb's middle joint presses on its near side.
@@ -68,8 +68,15 @@ struct SyntheticHand {
   Vec3 wrap_thumb = Vec3::Zero();  ///< the wrap's thumb middle joint, closed (hand frame, m)
   Vec3 wrap_box = Vec3::Zero();    ///< the wrapped object's bounding-box centre (hand frame, m)
 
+  /// fingertips: how far from the object's centre along x the thumb, index and
+  /// middle tips close (mm; the box's faces unless aimed: AimAt)
+  double tip_closed_mm[3] = {34.0, 34.0, 34.0};
+
   /// Grasps `o` where it lies (see above); call after choosing the hand (fingers, side, pinch, size_scale).
   void AimAt(const GraspObject& o);
+  /// The fingertips' closed reach on `o` (AimAt does it): each tip `squeeze_mm` into
+  /// the surface along x at its height and offset across.
+  void AimTips(const GraspObject& o);
 
   /// A whole hand of `fingers` fingers (duration_s set from hold_s).
   static SyntheticHand WholeHand(int fingers, double hold_s);

@@ -154,6 +154,26 @@ TEST(SyntheticGrasp, ABoxIsGraspedOnItsFacesWhereItLiesAndASmallOneMovesTowardTh
   ExpectWrapped(h, small, 2, 3);
 }
 
+TEST(SyntheticGrasp, TheFingertipsPressTheirSqueezeIntoACurvedObjectWhereItLies) {
+  // the fingertips' hand (thumb, index, middle): closed (t = 1.2 s), each tip's
+  // centre stands its radius less the squeeze off the surface; the index and middle,
+  // 15 mm to either side of the centre line, meet a sphere's curved side
+  const GraspObject o = Object(Sphere(0.03), Pose::Translation(Vec3(0.03, 0.02, 0.03)), Vec3::Constant(0.03));
+  SyntheticHand h;
+  h.AimAt(o);
+  Vec3 tips[5];
+  h.Tips(1.2, tips);
+  for (int f = 0; f < 3; ++f) {
+    const double gap = 1e3 * AnalyticDistance(o.shape, o.pose.ApplyInverse(1e-3 * tips[f]));
+    EXPECT_NEAR(gap, h.tip_radius_mm - h.squeeze_mm, 1e-6) << f;
+    EXPECT_NEAR(tips[f].z(), 30.0, 1e-9) << f;
+  }
+  // the box's faces, as before aiming: 34 mm from its centre
+  SyntheticHand paper;
+  paper.AimAt(Object(Box(Vec3::Constant(0.03)), Pose::Translation(Vec3(0, 0, 0.03)), Vec3::Constant(0.03)));
+  for (int f = 0; f < 3; ++f) EXPECT_NEAR(paper.tip_closed_mm[f], 34.0, 1e-9) << f;
+}
+
 // ---- the whole hand driven on scenes of other objects ----
 
 const std::string kScene = std::string(GRASPSIM_SOURCE_DIR) + "/config/whole_hand_power_grasp.yaml";
