@@ -148,8 +148,13 @@ void DetectCollisions(World& w) {
     DetectOnLanes(w);
   else
     DetectInOrder(w);
-  // a running mean over about ten steps: a lone heavy step (a cache built) moves no pairs onto the lanes
-  w.last_pairs_s_ += 0.1 * (w.profile.collision.traverse_s + w.profile.collision.project_s - w.last_pairs_s_);
+  // the median of the last nine steps: neither a lone heavy step (a cache built) nor a
+  // step the system preempted (its wall time on a busy machine) moves pairs onto the lanes
+  w.pair_samples_[w.pair_sample_next_] = w.profile.collision.traverse_s + w.profile.collision.project_s;
+  w.pair_sample_next_ = (w.pair_sample_next_ + 1) % World::kPairSamples;
+  std::array<double, World::kPairSamples> sorted = w.pair_samples_;
+  std::nth_element(sorted.begin(), sorted.begin() + World::kPairSamples / 2, sorted.end());
+  w.last_pairs_s_ = sorted[World::kPairSamples / 2];
   w.last_pairs_traversed_ = w.profile.work.pairs_traversed;
   w.profile.work.pairs_from_cache = w.profile.collision.cache_hits;
   w.profile.work.node_tests = w.profile.collision.node_pairs;

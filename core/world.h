@@ -22,6 +22,7 @@
 #pragma once
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <limits>
 #include <string>
@@ -371,7 +372,7 @@ struct WorldParams {
   double joint_limit_margin = 0.05;
   /// With a runner (World::UseRunner), the body pairs of a step are detected on its
   /// threads when the steps' pairs take at least this long (s, summed over threads;
-  /// CollisionStats traverse_s + project_s, a running mean over about ten steps):
+  /// CollisionStats traverse_s + project_s, the median of the last nine steps):
   /// below it waking a sleeping worker costs about what it saves (the paper grasp's
   /// pairs take 0.09 ms, the whole hand's at the paper's densities 0.36 ms). The
   /// results are the same either way.
@@ -522,7 +523,10 @@ class World {
   std::vector<CollisionLane> lanes;
   TaskRunner* runner_ = nullptr;
   int last_pairs_traversed_ = 0;  ///< the last step's StepWork::pairs_traversed (one pair: no task for a worker)
-  double last_pairs_s_ = 0.0;  ///< the steps' pair work (CollisionStats traverse_s + project_s, every thread's), a running mean over ~10 steps
+  double last_pairs_s_ = 0.0;  ///< the steps' pair work (CollisionStats traverse_s + project_s, every thread's): the median of the last kPairSamples steps
+  static constexpr int kPairSamples = 9;
+  std::array<double, kPairSamples> pair_samples_{};  ///< the last steps' pair work (s), a ring
+  int pair_sample_next_ = 0;
   int max_leaves_ = 1;  ///< the most leaves of a body's tree (Finalize)
   std::vector<PairCache> pair_caches;  ///< leaf-pair caches of the tree pairs, [i * bodies + j] for i < j
   NsgsScratch gs_scratch;

@@ -201,11 +201,13 @@ struct Chromium {
   // navigates, then waits for the first drawn frame meeting `condition` (JS, of the frame s); its JSON
   std::string WaitForFrame(int port, const std::string& condition) {
     Call("Page.navigate", "{\"url\":\"http://127.0.0.1:" + std::to_string(port) + "/\"}");
-    // the timeout only turns a page that never draws into a failure instead of a hang
+    // the timeout only turns a page that never draws into a failure instead of a hang: a
+    // headless chromium on SwiftShader can take tens of seconds to draw its first
+    // frame on a machine busy with other builds (30 s was once not enough)
     return Evaluate("(async () => { const t0 = Date.now(); "
                     "while (!window.graspsimView) { if (Date.now() - t0 > 60000) return 'no page'; "
                     "await new Promise(r => setTimeout(r, 20)); } "
-                    "const timeout = new Promise(r => setTimeout(() => r(null), 30000)); "
+                    "const timeout = new Promise(r => setTimeout(() => r(null), 120000)); "
                     "const d = await Promise.race([graspsimView.waitFor(s => " + condition + "), timeout]); "
                     "return d ? JSON.stringify(d) : 'timeout; last frame drawn: ' + JSON.stringify(graspsimView.drawn); })()");
   }
@@ -347,7 +349,7 @@ TEST_F(View, PageDrawsObjectFingertipsAndArrowWhereTheSimulationSays) {
   Chromium browser;
   ASSERT_TRUE(browser.Start()) << "chromium did not start with --remote-debugging-pipe";
   Graspsim replay;  // long enough for a slow browser to see the grasp: Ctrl-C ends it after the check
-  ASSERT_TRUE(replay.Start({"replay", kLog, "--realtime", "--quiet", "--duration", "20", "--view", "127.0.0.1:0"}))
+  ASSERT_TRUE(replay.Start({"replay", kLog, "--realtime", "--quiet", "--duration", "150", "--view", "127.0.0.1:0"}))
       << replay.text;
   // the first frame drawn with a force arrow (a headless chromium on SwiftShader takes seconds to show
   // its first frame on a loaded machine: often after the grasp, with the box on the table)
@@ -438,7 +440,7 @@ TEST_F(View, PageDrawsObjectFingertipsAndArrowWhereTheSimulationSays) {
 TEST_F(View, ReconnectedBrowserSeesTheSessionGoOn) {
   const std::filesystem::path out = std::filesystem::temp_directory_path() / ("graspsim_view_" + std::to_string(getpid()));
   Graspsim replay;
-  ASSERT_TRUE(replay.Start({"replay", kLog, "--realtime", "--quiet", "--duration", "30", "--view", "127.0.0.1:0", "--out",
+  ASSERT_TRUE(replay.Start({"replay", kLog, "--realtime", "--quiet", "--duration", "150", "--view", "127.0.0.1:0", "--out",
                             out.string()}))
       << replay.text;
   long first = 0;
