@@ -890,7 +890,9 @@ void ProjectSide(int id_q, const SphereTree& tq, const Pose& q_to_s, int id_s, c
 // patch, where it is.
 Vec3 PlaneTouch(const SphereTree& tq, int lq, const Vec3& n) {
   const MlsPatch* pq = tq.leaf_patch(lq);
-  if (!pq) return Vec3::Zero();
+  // a face's leaf (PairNormal's test): it touches where it is, at the cost of a branch
+  if (!pq || !(std::abs(pq->c[3]) + std::abs(pq->c[4]) + std::abs(pq->c[5]) > 0.5 * kFlatCurvature * pq->h))
+    return Vec3::Zero();
   MlsPatch flat;
   flat.normal = n;
   flat.t1 = AnyPerpendicular(n);
