@@ -231,8 +231,6 @@ void TrackedSim::Step() {
 
 namespace {
 
-constexpr double kOpenFlexion[3] = {0.0, 0.35, 0.15};  // the synthetic whole hand's, open
-
 // the scene's start pose is the synthetic hand's first one (within 5 mm and 5 degrees,
 // the start flexions within 0.01 rad of the open hand's)
 bool StartsWhereTheHandDoes(const World& w, const Pose& first) {
@@ -240,7 +238,7 @@ bool StartsWhereTheHandDoes(const World& w, const Pose& first) {
   if ((w.hand.pose.t - first.t).norm() > 5e-3 || angle > 5.0 * M_PI / 180.0) return false;
   for (const Finger& f : w.hand.fingers)
     for (int j = 0; j < 3; ++j)
-      if (std::abs(f.q[j + 1] - kOpenFlexion[j]) > 0.01) return false;
+      if (std::abs(f.q[j + 1] - tracking::SyntheticOpenFlexion()[j]) > 0.01) return false;
   return true;
 }
 
@@ -260,7 +258,7 @@ bool LoadForSyntheticHand(const std::string& path, TrackedSim* sim, tracking::Sy
   hand->WholeHandPose(0.0, &first, fingers);
   if (StartsWhereTheHandDoes(w, first)) return true;
   const auto start_there = [&](Scene* s) {
-    PlaceTrackedHand(s, first, Vec3(kOpenFlexion[0], kOpenFlexion[1], kOpenFlexion[2]));
+    PlaceTrackedHand(s, first, tracking::SyntheticOpenFlexion());
   };
   if (!sim->Load(path, error, SyntheticSizing(), start_there)) return false;
   const Vec3 deg = (180.0 / M_PI) * first.R.eulerAngles(2, 1, 0);

@@ -214,11 +214,9 @@ Pose MirroredY(const Pose& p, double y0) {
   return Pose{mirror * p.R * mirror, Vec3(p.t.x(), 2.0 * y0 - p.t.y(), p.t.z())};
 }
 
-constexpr double kOpenFlexion[3] = {0.0, 0.35, 0.15};
-
 // the four fingers hook over the far face (or wrap the object: `wrapped`); open, they stretch forward
 void PowerFingers(const HandModel& m, const Pose& hand, double open, const Vec3* wrapped, TrackedFinger* out) {
-  const Vec3 opened(kOpenFlexion[0], kOpenFlexion[1], kOpenFlexion[2]);
+  const Vec3 opened = SyntheticOpenFlexion();
   for (int f = 1; f < m.fingers; ++f) {
     const Vec3 closed = wrapped ? wrapped[f] : Vec3(0.0, 0.5 * M_PI, 0.0);
     out[f] = PoseFinger(m, f, hand, open * opened + (1.0 - open) * closed);
@@ -295,7 +293,7 @@ void SyntheticHand::AimAt(const GraspObject& o) {
     g.thumb.x() -= over;
   }
   wrap_box = g.box;
-  const Vec3 opened(kOpenFlexion[0], kOpenFlexion[1], kOpenFlexion[2]);
+  const Vec3 opened = SyntheticOpenFlexion();
   for (int f = 1; f < m.fingers; ++f) wrap_flexion[f] = WrapFinger(m, f, o.shape, body, opened, g.squeeze);
 }
 

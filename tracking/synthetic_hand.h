@@ -34,6 +34,10 @@
 
 namespace gs::tracking {
 
+/// The whole hand's open flexions (root, middle-inner, outer-middle; rad), every
+/// finger's: where it starts and what it opens to.
+inline Vec3 SyntheticOpenFlexion() { return Vec3(0.0, 0.35, 0.15); }
+
 /// An object for the synthetic hand to grasp, in the room (m).
 struct GraspObject {
   ShapeDesc shape;               ///< in its body frame; a mesh is grasped as its bounding box

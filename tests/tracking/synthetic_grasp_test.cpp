@@ -246,6 +246,7 @@ void ExpectLiftedAndHeld(const Lift& l) {
 // config/whole_hand_can_grasp.yaml, as shipped
 TEST(SyntheticGrasp, TheShippedCanGraspWrapsTheLyingCanLiftsItAndDropsItWithoutFriction) {
 #ifdef GRASPSIM_SANITIZED
+  // skipped under sanitizers only: physics, single-threaded, far too slow there; the release suite runs it
   GTEST_SKIP() << "3 s of a 21,000-point grasp, twice: minutes under sanitizers; the release suite runs it";
 #endif
   std::ifstream f(std::string(GRASPSIM_SOURCE_DIR) + "/config/whole_hand_can_grasp.yaml");
@@ -267,6 +268,7 @@ TEST(SyntheticGrasp, TheShippedCanGraspWrapsTheLyingCanLiftsItAndDropsItWithoutF
 
 TEST(SyntheticGrasp, TheWholeHandLiftsAStandingCanFromTheSideByFrictionAlone) {
 #ifdef GRASPSIM_SANITIZED
+  // skipped under sanitizers only: physics, single-threaded, far too slow there; the release suite runs it
   GTEST_SKIP() << "3 s of a 21,000-point grasp, twice: minutes under sanitizers; the release suite runs it";
 #endif
   const std::string can = Can("{type: cylinder, radius_m: 0.03, height_m: 0.10}", "[0.01, 0.02, 0.0502]", "[0, 0, 0]");
