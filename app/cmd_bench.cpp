@@ -120,6 +120,9 @@ void AddBenchCommand(CLI::App& app, int* exit_code) {
                        "busy-wait this many microseconds before each deadline instead of sleeping")
       ->type_name("MICROSECONDS")
       ->check(InRange(0.0, 1000.0, "a number of microseconds"));
+  realtime->add_flag("--detect-every-step", opt->detect_every_step,
+                     "detect collisions in every step; without it, a step that follows one past its step budget "
+                     "carries that step's contacts, moved with the bodies (never two steps in a row), as live does");
   realtime->add_flag("--skip-late-solves", opt->skip_late_solves,
                      "a step whose stages before the solve left no time for a sweep keeps the last forces instead of "
                      "sweeping late (never two steps in a row, never with over 5 % new contacts)");

@@ -39,6 +39,7 @@ struct LiveCmd {
   double step_budget = 0.8;  ///< a step has this fraction of the timestep, ending at most as far into its slot (0: no limit)
   int lead_steps = 1;        ///< a step may begin this many timesteps before its slot
   bool skip_late_solves = false;
+  bool detect_every_step = false;
   int threads = 0;  ///< --threads (0: WorkerPool::ThreadsFor's default)
 };
 
@@ -164,6 +165,7 @@ int Live(const LiveCmd& c) {
   o.step_budget = c.step_budget;
   o.lead_steps = c.lead_steps;
   o.skip_late_solves = c.skip_late_solves;
+  o.detect_every_step = c.detect_every_step;
   o.threads = WorkerPool::ThreadsFor(c.threads);
   const World& w = sim->world();
   char lcm[300];
@@ -218,6 +220,9 @@ int Live(const LiveCmd& c) {
               static_cast<long long>(st.unconverged_steps), static_cast<long long>(st.budget_stops),
               o.step_budget > 0 ? (std::to_string(o.step_budget) + " of a timestep").c_str() : "off",
               static_cast<long long>(st.skipped_solves), st.residual_max);
+  std::printf("live: %lld steps carried the last step's contacts after steps past their budget (%s)\n",
+              static_cast<long long>(st.carried_steps),
+              o.detect_every_step || o.step_budget <= 0 ? "off: detection in every step" : "--detect-every-step turns it off");
   std::printf("live: simulation thread: %s%s%s; a step may begin %d timestep%s before its slot (--lead-steps)\n",
               st.pacing.Describe().c_str(), st.pacing.refused.empty() ? "" : "; ", st.pacing.refused.c_str(),
               o.lead_steps, o.lead_steps == 1 ? "" : "s");
@@ -254,7 +259,8 @@ int Live(const LiveCmd& c) {
               "\"silences\":%d,\"recoveries\":%d,\"rate_changes\":%d,\"garbage_bursts\":%d,\"floods\":%d,"
               "\"rejected_bursts\":%d,\"tracker_state\":\"%s\",\"published\":%llu,\"lcm_ok\":%s,"
               "\"rendering\":%s,\"frames_drawn\":%lld,\"frames_dropped\":%lld,\"pacing\":\"%s\","
-              "\"unconverged_steps\":%lld,\"budget_stops\":%lld,\"skipped_solves\":%lld,\"residual_max\":%.3g,"
+              "\"unconverged_steps\":%lld,\"budget_stops\":%lld,\"skipped_solves\":%lld,\"carried_contact_steps\":%lld,"
+              "\"residual_max\":%.3g,"
               "\"lead_steps\":%d,\"tracker_input\":\"%s\",\"good_datagrams\":%llu,\"good_hz\":%.4f,"
               "\"not_dtrack_datagrams\":%llu,\"missing_datagrams\":%llu,\"not_dtrack_bursts\":%d,"
               "\"missing_bursts\":%d,\"foreign_messages\":%llu,\"max_rise_m\":%.6f,\"lifted\":%s,"
@@ -268,7 +274,8 @@ int Live(const LiveCmd& c) {
               st.lcm_ok ? "true" : "false", rendering ? "true" : "false", static_cast<long long>(st.frames_drawn),
               static_cast<long long>(st.frames_dropped), st.pacing.Describe().c_str(),
               static_cast<long long>(st.unconverged_steps), static_cast<long long>(st.budget_stops),
-              static_cast<long long>(st.skipped_solves), st.residual_max, o.lead_steps,
+              static_cast<long long>(st.skipped_solves), static_cast<long long>(st.carried_steps), st.residual_max,
+              o.lead_steps,
               o.lcm_channel.empty() ? "udp" : ("lcm:" + o.lcm_channel).c_str(),
               static_cast<unsigned long long>(st.good_datagrams), st.good_hz,
               static_cast<unsigned long long>(st.not_dtrack), static_cast<unsigned long long>(st.missing),
@@ -324,6 +331,9 @@ void AddLiveCommand(CLI::App& app, int* exit_code) {
       ->type_name("N")
       ->check(IntInRange(0, 99, "a SCHED_FIFO priority"))
       ->capture_default_str();
+  cmd->add_flag("--detect-every-step", c->detect_every_step,
+               "detect collisions in every step; without it, a step that follows one past its step budget carries "
+               "that step's contacts, moved with the bodies, instead of detecting them (never two steps in a row)");
   cmd->add_flag("--skip-late-solves", c->skip_late_solves,
                "a step whose stages before the solve left no time for a sweep keeps the last forces instead of "
                "sweeping late (never two steps in a row, never with over 5 % new contacts)");

@@ -24,6 +24,7 @@ struct BenchOptions {
   int cpu = 0;           ///< bench realtime: the simulation's core, the render thread on the others (-1: no pinning)
   bool cpu_given = false;  ///< bench realtime: --cpu given (else a core no other graspsim loop runs on)
   bool skip_late_solves = false;  ///< bench realtime: WorldParams::budget_may_skip_solve
+  bool detect_every_step = false;  ///< bench realtime: no carried contacts (WorldParams::carry_contacts_after_s 0)
   int lead_steps = 1;  ///< bench realtime: a step may begin this many timesteps before its slot (StepSchedule)
   double step_budget = 0.8;  ///< bench realtime: a step ends this fraction of the timestep into its slot, the solver stopping early (0: no limit)
   std::string view;          ///< bench realtime: serve the live view during the rendering run on [ADDR:]PORT

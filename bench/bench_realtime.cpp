@@ -125,7 +125,7 @@ struct StepTrace {
         solve = 0, constrained_motion = 0, total = 0;  // ms
   int contacts = 0, iterations = 0, cache_hits = 0, cache_builds = 0, cache_refills = 0, slice_tests = 0;
   StepWork work;
-  bool frame = false, budget_stopped = false, solve_skipped = false;
+  bool frame = false, budget_stopped = false, solve_skipped = false, carried = false;
   double residual = 0.0;
 };
 
@@ -158,6 +158,7 @@ struct RunResult {
   int64_t unconverged = 0;      ///< steps whose solve did not reach the scene's tolerance
   int64_t budget_stops = 0;     ///< of those, ended by the step budget
   int64_t skipped_solves = 0;   ///< of those, steps left no time for a sweep (the warm start stood)
+  int64_t carried_steps = 0;    ///< steps that carried the last step's contacts (WorldParams::carry_contacts_after_s)
   double residual_max = 0.0;    ///< largest solver error of a step (estimated where the budget stopped it)
   int lifts = 0;                ///< cycles in which the box rose 2 cm above its start
   std::vector<double> lift_s;   ///< when each of them rose (simulated s)
@@ -170,15 +171,18 @@ struct RunResult {
 };
 
 bool RunOnce(const std::string& scene, const Session& session, double seconds, bool render, const PacingOptions& po,
-             int threads, int lead, double step_budget, bool skip_late_solves, bool trace, const std::string& view_address,
+             int threads, const BenchOptions& opt, bool trace, const std::string& view_address,
              RunResult* out, std::string* error) {
   auto sim = std::make_unique<TrackedSim>();
   tracking::SyntheticHand aimed;  // the session's, already made: only the scene's start pose matters here
   std::string moved;
   if (!LoadForSyntheticHand(scene, sim.get(), &aimed, &moved, error)) return false;
   World& w = sim->world();
-  w.params.budget_may_skip_solve = skip_late_solves;
+  const int lead = opt.lead_steps;
+  const double step_budget = opt.step_budget;
+  w.params.budget_may_skip_solve = opt.skip_late_solves;
   const double dt = w.params.dt;
+  w.params.carry_contacts_after_s = CarryContactsAfter(step_budget, opt.detect_every_step, dt);
   const int64_t steps = static_cast<int64_t>(std::llround(seconds / dt));
   RenderOptions ro;
   ro.discard = render;  // draw every frame time, write nothing
@@ -241,6 +245,7 @@ bool RunOnce(const std::string& scene, const Session& session, double seconds, b
     out->unconverged += w.profile.converged ? 0 : 1;
     out->budget_stops += w.profile.budget_stopped ? 1 : 0;
     out->skipped_solves += w.profile.solve_skipped ? 1 : 0;
+    out->carried_steps += w.profile.contacts_carried ? 1 : 0;
     if (!w.profile.solve_skipped) out->residual_max = std::max(out->residual_max, w.profile.residual);
     const bool frame = recorder.FrameDue(w);
     if (frame) sim->HudText(tracker_text, sizeof tracker_text);
@@ -287,6 +292,7 @@ bool RunOnce(const std::string& scene, const Session& session, double seconds, b
       t.frame = frame;
       t.budget_stopped = p.budget_stopped;
       t.solve_skipped = p.solve_skipped;
+      t.carried = p.contacts_carried;
       t.residual = p.residual;
       out->trace.push_back(t);
     }
@@ -374,7 +380,7 @@ bool WriteTrace(FILE* f, const std::string& path, const RunResult& with, const R
                   "fill_w_rigid_ms,fill_w_deform_ms,solve_ms,constrained_motion_ms,step_ms,contacts,sweeps,"
                   "cache_hits,cache_builds,frame,budget_stop,node_tests,w_blocks_built,w_deform_sides,"
                   "w_deform_reused,w_deform_direct,weights_reused,deformed_points,bodies_asleep,contacts_reused,"
-                  "cache_refills,slice_tests,solve_skipped,residual\n");
+                  "cache_refills,slice_tests,solve_skipped,residual,carried_contacts\n");
   for (const RunResult* r : {&with, &without}) {
     for (const StepTrace& t : r->trace) {
       std::fprintf(f, "%d,%lld,%.6f,%.6f,%.6f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%d,%d,%d,%d,%d,%d,",
@@ -383,9 +389,10 @@ bool WriteTrace(FILE* f, const std::string& path, const RunResult& with, const R
                    t.constrained_motion, t.total, t.contacts, t.iterations, t.cache_hits, t.cache_builds,
                    t.frame ? 1 : 0, t.budget_stopped ? 1 : 0);
       const StepWork& k = t.work;
-      std::fprintf(f, "%d,%d,%d,%d,%d,%d,%d,%d,%d,%d,%d,%d,%.3g\n", k.node_tests, k.w_blocks_built, k.w_deform_sides,
+      std::fprintf(f, "%d,%d,%d,%d,%d,%d,%d,%d,%d,%d,%d,%d,%.3g,%d\n", k.node_tests, k.w_blocks_built, k.w_deform_sides,
                    k.w_deform_reused, k.w_deform_direct, k.weights_reused, k.deformed_points, k.bodies_asleep,
-                   k.contacts_reused, t.cache_refills, t.slice_tests, t.solve_skipped ? 1 : 0, t.residual);
+                   k.contacts_reused, t.cache_refills, t.slice_tests, t.solve_skipped ? 1 : 0, t.residual,
+                   t.carried ? 1 : 0);
     }
   }
   const bool ok = std::ferror(f) == 0;
@@ -404,7 +411,7 @@ void PrintJson(const RunResult& r, double seconds) {
               "\"worst_lateness_ms\":%.4f,\"step_ms_median\":%.4f,\"step_ms_p99\":%.4f,\"step_ms_max\":%.4f,"
               "\"loop_ms_median\":%.4f,\"loop_ms_p99\":%.4f,\"wall_s\":%.3f,\"frames\":%d,\"frames_taken\":%d,"
               "\"frames_dropped\":%d,\"max_contacts\":%d,\"unconverged_steps\":%lld,\"budget_stops\":%lld,"
-              "\"skipped_solves\":%lld,\"residual_max\":%.3g,\"lifts\":%d,\"datagrams\":%zu,"
+              "\"skipped_solves\":%lld,\"carried_contact_steps\":%lld,\"residual_max\":%.3g,\"lifts\":%d,\"datagrams\":%zu,"
               "\"wake_ms_p99\":%.4f,\"wake_ms_max\":%.4f,\"pacing\":\"%s\",\"pacing_refused\":\"%s\","
               "\"load_average_start\":%.2f,\"load_average_end\":%.2f,\"steal_ms\":%.0f}\n",
               r.render ? "true" : "false", r.threads, seconds, static_cast<long long>(r.steps), static_cast<long long>(r.missed),
@@ -412,7 +419,8 @@ void PrintJson(const RunResult& r, double seconds) {
               static_cast<long long>(r.missed_woke_late), static_cast<long long>(r.missed_carried), r.worst_late_ms,
               r.step_median_ms, r.step_p99_ms, r.step_max_ms, r.loop_median_ms, r.loop_p99_ms,
               r.wall_s, r.frames_drawn, r.frames_taken, r.frames_dropped, r.max_contacts, static_cast<long long>(r.unconverged),
-              static_cast<long long>(r.budget_stops), static_cast<long long>(r.skipped_solves), r.residual_max, r.lifts, r.datagrams, r.wake_p99_ms,
+              static_cast<long long>(r.budget_stops), static_cast<long long>(r.skipped_solves),
+              static_cast<long long>(r.carried_steps), r.residual_max, r.lifts, r.datagrams, r.wake_p99_ms,
               r.wake_max_ms, r.pacing.c_str(), r.refused.c_str(), r.load_start, r.load_end, r.steal_ms);
 }
 
@@ -452,10 +460,8 @@ int RunBenchRealtime(const BenchOptions& opt) {
     return 3;
   }
   const int threads = WorkerPool::ThreadsFor(opt.threads);
-  if (!RunOnce(scene, session, seconds, true, po, threads, opt.lead_steps, opt.step_budget, opt.skip_late_solves, trace,
-               opt.view, &with, &error) ||
-      !RunOnce(scene, session, seconds, false, po, threads, opt.lead_steps, opt.step_budget, opt.skip_late_solves, trace, "",
-               &without, &error) ||
+  if (!RunOnce(scene, session, seconds, true, po, threads, opt, trace, opt.view, &with, &error) ||
+      !RunOnce(scene, session, seconds, false, po, threads, opt, trace, "", &without, &error) ||
       (trace && !WriteTrace(std::exchange(trace_file, nullptr), opt.steps_csv, with, without, &error))) {
     if (trace_file) {  // a run failed: the trace is not written
       std::fclose(trace_file);
@@ -484,7 +490,8 @@ int RunBenchRealtime(const BenchOptions& opt) {
                 "\"worst_lateness_ms\":%.4f,\"step_ms_median\":%.4f,\"step_ms_p99\":%.4f,\"frames\":%d,"
                 "\"frames_dropped\":%d,\"no_render_missed_deadlines\":%lld,\"no_render_worst_lateness_ms\":%.4f,"
                 "\"no_render_step_ms_median\":%.4f,\"empty_loop_missed_deadlines\":%lld,\"empty_loop_late_runs\":%lld,"
-                "\"unconverged_steps\":%lld,\"budget_stops\":%lld,\"skipped_solves\":%lld,\"step_budget\":%g,"
+                "\"unconverged_steps\":%lld,\"budget_stops\":%lld,\"skipped_solves\":%lld,\"carried_contact_steps\":%lld,"
+                "\"no_render_carried_contact_steps\":%lld,\"step_budget\":%g,"
                 "\"lead_steps\":%d,\"view_requests\":%lld,\"pacing\":\"%s\",\"target_met\":%s}\n",
                 seconds, static_cast<long long>(with.steps), static_cast<long long>(with.missed),
                 static_cast<long long>(with.late_runs), static_cast<long long>(with.overlong),
@@ -494,7 +501,8 @@ int RunBenchRealtime(const BenchOptions& opt) {
                 static_cast<long long>(without.missed), without.worst_late_ms, without.step_median_ms,
                 static_cast<long long>(empty.missed), static_cast<long long>(empty.late_runs),
                 static_cast<long long>(with.unconverged), static_cast<long long>(with.budget_stops),
-                static_cast<long long>(with.skipped_solves), opt.step_budget, opt.lead_steps,
+                static_cast<long long>(with.skipped_solves), static_cast<long long>(with.carried_steps),
+                static_cast<long long>(without.carried_steps), opt.step_budget, opt.lead_steps,
                 static_cast<long long>(with.view_requests), with.pacing.c_str(), with.missed == 0 && with.step_median_ms <= 1.0 ? "true" : "false");
     return 0;
   }
@@ -526,6 +534,10 @@ int RunBenchRealtime(const BenchOptions& opt) {
                 r->render ? "with rendering" : "without rendering", static_cast<long long>(r->unconverged),
                 static_cast<long long>(r->budget_stops), opt.step_budget, opt.step_budget > 0 ? "" : ": no budget",
                 static_cast<long long>(r->skipped_solves), r->residual_max);
+  for (const RunResult* r : {&with, &without})
+    std::printf("  %s: %lld steps carried the last step's contacts after a step past its budget (%s)\n",
+                r->render ? "with rendering" : "without rendering", static_cast<long long>(r->carried_steps),
+                opt.detect_every_step || opt.step_budget <= 0 ? "off: detection in every step" : "--detect-every-step turns it off");
   std::printf("  load average %.2f -> %.2f (rendering run), %.2f -> %.2f (without)\n", with.load_start, with.load_end,
               without.load_start, without.load_end);
   std::printf("  the hypervisor's steal time on the loop's core (/proc/stat, 10 ms ticks; -1: not said): %.0f ms "

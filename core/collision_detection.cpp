@@ -33,9 +33,16 @@ PairCache* CacheOf(World& w, int i, int j) {
   return w.pair_caches.empty() ? nullptr : &w.pair_caches[static_cast<size_t>(i) * n + j];
 }
 
-// Calls visit(i, j, asleep) for every body pair to detect this step, in the pair
-// loop's order (i, then j > i): asleep (its last contacts reused, sleep.cpp) or whose
-// root spheres overlap.
+// what becomes of a body pair in the step's collision detection
+enum class EPair { Detect, Asleep, Carried };
+
+// keeps the pair's last contacts, moved with the bodies (asleep or carried)
+bool Kept(EPair e) { return e != EPair::Detect; }
+
+// Calls visit(i, j, what) for every body pair to detect this step, in the pair
+// loop's order (i, then j > i): asleep (its last contacts reused, sleep.cpp),
+// carried in a step short of time (its last contacts reused, carried_contacts.cpp)
+// or detected, whose root spheres overlap.
 template <class Visit>
 void ForEachPairToDetect(World& w, Visit&& visit) {
   const int n = static_cast<int>(w.bodies.size());
@@ -49,24 +56,40 @@ void ForEachPairToDetect(World& w, Visit&& visit) {
       if (!w.CanTouch(i, j)) continue;
       ++w.profile.work.body_pairs;
       if (PairAsleep(w, i, j)) {
-        visit(i, j, true);
+        visit(i, j, EPair::Asleep);
         continue;
       }
       ++w.profile.work.pair_tests;
       if (!RootsOverlap(sa, a.pose, b.Shape(), b.pose, w.params.collision.contact_threshold)) continue;
+      if (w.carrying_ && PairCarried(w, i, j)) {
+        visit(i, j, EPair::Carried);
+        continue;
+      }
       ++w.profile.work.pairs_traversed;
-      visit(i, j, false);
+      visit(i, j, EPair::Detect);
     }
   }
 }
 
+// refits the trees once a step: at its start, or in a step that may carry contacts
+// before the first pair that is detected (when every pair carries, the moved
+// control points stay marked for the next refit)
+void RefitOnce(World& w, bool* done) {
+  if (*done) return;
+  *done = true;
+  const auto t0 = std::chrono::steady_clock::now();
+  RefitTrees(w);
+  w.profile.refit = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
 // every pair on the calling thread, straight into the world's contacts
-void DetectInOrder(World& w) {
-  ForEachPairToDetect(w, [&](int i, int j, bool asleep) {
-    if (asleep) {
-      ReuseContacts(w, i, j);
+void DetectInOrder(World& w, bool* refit) {
+  ForEachPairToDetect(w, [&](int i, int j, EPair what) {
+    if (Kept(what)) {
+      ReuseContacts(w, i, j, what == EPair::Carried);
       return;
     }
+    RefitOnce(w, refit);
     const Body& a = w.bodies[i];
     const Body& b = w.bodies[j];
     CollidePair(i, a.Shape(), a.pose, j, b.Shape(), b.pose, w.params.collision, &w.collision_scratch, &w.contacts,
@@ -76,17 +99,19 @@ void DetectInOrder(World& w) {
 
 // the pairs listed, collided on the runner's threads into their lanes (the larger
 // first: the served leaf-pair list's length as the measure), then gathered in order
-void DetectOnLanes(World& w) {
+void DetectOnLanes(World& w, bool* refit) {
   w.pair_tasks.clear();
   w.task_order.clear();
-  ForEachPairToDetect(w, [&](int i, int j, bool asleep) {
-    if (!asleep) w.task_order.push_back(static_cast<int>(w.pair_tasks.size()));
+  ForEachPairToDetect(w, [&](int i, int j, EPair what) {
+    if (!Kept(what)) w.task_order.push_back(static_cast<int>(w.pair_tasks.size()));
     World::PairTask t;
     t.i = i;
     t.j = j;
-    t.asleep = asleep;
+    t.kept = Kept(what);
+    t.carried = what == EPair::Carried;
     w.pair_tasks.push_back(t);
   });
+  if (!w.task_order.empty()) RefitOnce(w, refit);
   auto size = [&](int t) {
     const PairCache* c = CacheOf(w, w.pair_tasks[t].i, w.pair_tasks[t].j);
     return c ? c->pairs.size() : size_t{0};
@@ -118,8 +143,8 @@ void DetectOnLanes(World& w) {
   for (const World::CollisionLane& lane : w.lanes) total.Add(lane.stats);
   int kept = 0, dropped = 0;
   for (const World::PairTask& t : w.pair_tasks) {
-    if (t.asleep) {
-      ReuseContacts(w, t.i, t.j);
+    if (t.kept) {
+      ReuseContacts(w, t.i, t.j, t.carried);
       continue;
     }
     const std::vector<Contact>& items = w.lanes[t.lane].contacts.items;
@@ -136,26 +161,28 @@ void DetectOnLanes(World& w) {
 void DetectCollisions(World& w) {
   using Clock = std::chrono::steady_clock;
   const auto t0 = Clock::now();
-  RefitTrees(w);
-  const auto t1 = Clock::now();
-  w.profile.refit = std::chrono::duration<double>(t1 - t0).count();
-
+  bool refit = false;
+  if (!w.carrying_) RefitOnce(w, &refit);
   // on the runner's threads when the last steps' pairs took long enough to pay for
   // waking them (WorldParams::lanes_from_s; the results are the same either way)
   w.contacts.Clear();
   if (w.runner() && w.runner()->threads() > 1 && w.lanes.size() >= static_cast<size_t>(w.runner()->threads()) &&
       w.last_pairs_s_ >= w.params.lanes_from_s)
-    DetectOnLanes(w);
+    DetectOnLanes(w, &refit);
   else
-    DetectInOrder(w);
+    DetectInOrder(w, &refit);
   // the median of the last nine steps: neither a lone heavy step (a cache built) nor a
   // step the system preempted (its wall time on a busy machine) moves pairs onto the lanes
-  w.pair_samples_[w.pair_sample_next_] = w.profile.collision.traverse_s + w.profile.collision.project_s;
-  w.pair_sample_next_ = (w.pair_sample_next_ + 1) % World::kPairSamples;
-  std::array<double, World::kPairSamples> sorted = w.pair_samples_;
-  std::nth_element(sorted.begin(), sorted.begin() + World::kPairSamples / 2, sorted.end());
-  w.last_pairs_s_ = sorted[World::kPairSamples / 2];
-  w.last_pairs_traversed_ = w.profile.work.pairs_traversed;
+  // (a step that carried its pairs' contacts says nothing of what detecting them takes)
+  w.profile.contacts_carried = w.profile.work.pairs_carried > 0;
+  if (!w.profile.contacts_carried) {
+    w.pair_samples_[w.pair_sample_next_] = w.profile.collision.traverse_s + w.profile.collision.project_s;
+    w.pair_sample_next_ = (w.pair_sample_next_ + 1) % World::kPairSamples;
+    std::array<double, World::kPairSamples> sorted = w.pair_samples_;
+    std::nth_element(sorted.begin(), sorted.begin() + World::kPairSamples / 2, sorted.end());
+    w.last_pairs_s_ = sorted[World::kPairSamples / 2];
+    w.last_pairs_traversed_ = w.profile.work.pairs_traversed;
+  }
   w.profile.work.pairs_from_cache = w.profile.collision.cache_hits;
   w.profile.work.node_tests = w.profile.collision.node_pairs;
   w.profile.traverse = w.profile.collision.traverse_s;

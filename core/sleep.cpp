@@ -54,6 +54,7 @@ void Wake(Body& b) {
 }  // namespace
 
 void World::WakeAll() {
+  may_carry_ = false;  // a state changed by hand: its contacts are detected
   for (Body& b : bodies) {
     Wake(b);
     if (b.deform.enabled()) b.AllLive();
@@ -62,6 +63,7 @@ void World::WakeAll() {
 
 void WakeSleepingBodies(World& w) {
   w.reuse_cursor = 0;
+  w.carry_cursor_ = 0;
   const bool enabled = w.params.sleep.enabled;
   const bool gravity_changed = w.params.gravity != w.sleep_gravity;
   w.sleep_gravity = w.params.gravity;
@@ -73,7 +75,11 @@ void WakeSleepingBodies(World& w) {
       Wake(b);
     any |= b.asleep;
   }
-  if (!any) return;
+  if (!any) {
+    // pairs that carry their contacts read them likewise
+    if (w.carrying_) w.contacts_prev.assign(w.contacts.items.begin(), w.contacts.items.end());
+    return;
+  }
   // an awake moving body whose bounding sphere reaches a sleeping one wakes it;
   // the woken body moves from now on, so repeat until nothing more wakes
   const int n = static_cast<int>(w.bodies.size());
@@ -98,8 +104,9 @@ void WakeSleepingBodies(World& w) {
     any = true;
     ++w.profile.work.bodies_asleep;
   }
-  // the pairs kept asleep read the last contacts (still in the buffer: detection clears it next)
-  if (any) w.contacts_prev.assign(w.contacts.items.begin(), w.contacts.items.end());
+  // the pairs kept asleep (or carried) read the last contacts (still in the buffer:
+  // detection clears it next)
+  if (any || w.carrying_) w.contacts_prev.assign(w.contacts.items.begin(), w.contacts.items.end());
 }
 
 bool PairAsleep(const World& w, int i, int j) {
@@ -109,8 +116,8 @@ bool PairAsleep(const World& w, int i, int j) {
   return (a.asleep || Stationary(a)) && (b.asleep || Stationary(b));
 }
 
-void ReuseContacts(World& w, int i, int j) {
-  ++w.profile.work.pairs_asleep;
+void ReuseContacts(World& w, int i, int j, bool carried) {
+  ++(carried ? w.profile.work.pairs_carried : w.profile.work.pairs_asleep);
   // the last contacts are in the pair loop's order (i, then j > i): a forward cursor finds them
   auto pair_of = [](const Contact& c) {
     return std::make_pair(std::min(c.body[0], c.body[1]), std::max(c.body[0], c.body[1]));
@@ -121,16 +128,20 @@ void ReuseContacts(World& w, int i, int j) {
   while (k < prev.size() && pair_of(prev[k]) < key) ++k;
   for (; k < prev.size() && pair_of(prev[k]) == key; ++k) {
     Contact c = prev[k];
-    const Body& a = w.bodies[c.body[0]];
-    const Body& b = w.bodies[c.body[1]];
-    // rigidly moved: the surface's normal turns with body[1], the gap follows the two points
-    const Vec3 old_d = a.pose_detected.Apply(c.anchor[0]) - b.pose_detected.Apply(c.anchor[1]);
-    const Vec3 new_d = a.pose.Apply(c.anchor[0]) - b.pose.Apply(c.anchor[1]);
-    const Vec3 n = b.pose.R * (b.pose_detected.R.transpose() * c.normal);
-    c.gap += new_d.dot(n) - old_d.dot(c.normal);
-    c.normal = n.normalized();
-    if (w.contacts.Push(c)) ++w.profile.work.contacts_reused;
+    MoveWithBodies(w, &c);
+    if (w.contacts.Push(c)) ++(carried ? w.profile.work.contacts_carried : w.profile.work.contacts_reused);
   }
+}
+
+void MoveWithBodies(const World& w, Contact* c) {
+  const Body& a = w.bodies[c->body[0]];
+  const Body& b = w.bodies[c->body[1]];
+  // rigidly moved: the surface's normal turns with body[1], the gap follows the two points
+  const Vec3 old_d = a.pose_detected.Apply(c->anchor[0]) - b.pose_detected.Apply(c->anchor[1]);
+  const Vec3 new_d = a.pose.Apply(c->anchor[0]) - b.pose.Apply(c->anchor[1]);
+  const Vec3 n = b.pose.R * (b.pose_detected.R.transpose() * c->normal);
+  c->gap += new_d.dot(n) - old_d.dot(c->normal);
+  c->normal = n.normalized();
 }
 
 void UpdateSleep(World& w) {

@@ -294,11 +294,11 @@ void SolveContacts(World& w) {
   }
   // no time left for one sweep (and the last step did sweep, and nearly every
   // contact has a last force): the warm start stands
-  if (n > 0 && w.params.step_time_budget_s > 0.0 && w.params.budget_may_skip_solve && w.last_sweep_s_ > 0.0 &&
+  if (n > 0 && w.step_budget_s() > 0.0 && w.params.budget_may_skip_solve && w.last_sweep_s_ > 0.0 &&
       !w.last_solve_skipped_ &&
       20 * (contacts - w.profile.work.warm_started) <= contacts) {
     const double spent = std::chrono::duration<double>(t0 - w.step_started()).count();
-    const double left = w.params.step_time_budget_s - spent - w.last_constrained_motion_s();
+    const double left = w.step_budget_s() - spent - w.last_constrained_motion_s();
     if (left < w.last_sweep_s_) {
       w.profile.iterations = 0;
       w.profile.residual = 0.0;
@@ -317,11 +317,11 @@ void SolveContacts(World& w) {
     // a step that converged in its sweep may skip the exact error pass (nsgs.h)
     params.accept_error_bound = true;
     params.gap_scale = StepGapScale(w.params);
-    if (w.params.step_time_budget_s > 0.0) {
+    if (w.step_budget_s() > 0.0) {
       // what is left of the step's budget once the stages before have run, less what
       // constrained motion took in the last step (at least one sweep always runs)
       const double spent = std::chrono::duration<double>(t0 - w.step_started()).count();
-      params.time_budget_s = std::max(1e-9, w.params.step_time_budget_s - spent - w.last_constrained_motion_s());
+      params.time_budget_s = std::max(1e-9, w.step_budget_s() - spent - w.last_constrained_motion_s());
     }
     NsgsResult res = frictionless ? SolveNormalsOnly(op, w.solve_r.data(), params)
                                         : SolveNsgs(op, w.solve_r.data(), params, w.gs_scratch);

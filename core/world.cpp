@@ -115,6 +115,7 @@ void World::SetCanTouch(int a, int b, bool can) {
 }
 
 void World::Finalize() {
+  may_carry_ = false;  // a scene changed: its contacts are detected
   const int n = static_cast<int>(bodies.size());
   if (friction_.size() != static_cast<size_t>(n) * n) {
     std::vector<double> old = friction_;
@@ -254,15 +255,31 @@ void World::UseRunner(TaskRunner* runner) {
   task_order.reserve(n * (n - 1) / 2 + 1);
 }
 
+double World::step_budget_s() const {
+  const double budget = params.step_time_budget_s;
+  if (!profile.contacts_carried || !(budget > 0.0)) return budget;
+  // the steps since the last detection, this one included, at the share each on average
+  return std::min(budget, std::max(1e-9, params.carry_contacts_after_s * (carried_in_row_ + 2) - since_detection_s_));
+}
+
+// Whether this step may carry the last step's contacts: the steps since the last
+// detection ran past their share of time (WorldParams::carry_contacts_after_s)
+bool World::CarriesContacts() const {
+  const double share = params.carry_contacts_after_s;
+  return share > 0.0 && may_carry_ && carried_in_row_ < kMaxCarriedSteps &&
+         since_detection_s_ > share * (carried_in_row_ + 1);
+}
+
 void World::Step() {
   const FlushSubnormals flush;  // core/float_mode.h: decaying motions must not slow the step down
   using Clock = std::chrono::steady_clock;
   const auto t0 = Clock::now();
   step_started_ = t0;
   profile = StepProfile{};
+  const bool carry = carrying_ = CarriesContacts();
   // the pairs will go to the runner's threads (collision_detection.cpp): wake them now,
   // while free motion runs
-  if (runner_ && !lanes.empty() && last_pairs_s_ >= params.lanes_from_s && last_pairs_traversed_ >= 2)
+  if (!carry && runner_ && !lanes.empty() && last_pairs_s_ >= params.lanes_from_s && last_pairs_traversed_ >= 2)
     runner_->Expect();
   FreeMotion(*this);
   const auto t1 = Clock::now();
@@ -279,6 +296,11 @@ void World::Step() {
   profile.constrained_motion = std::chrono::duration<double>(t3 - t2).count();
   last_constrained_motion_s_ = profile.constrained_motion;
   profile.total = std::chrono::duration<double>(t3 - t0).count();
+  carrying_ = false;
+  const bool carried = profile.contacts_carried;
+  carried_in_row_ = carried ? carried_in_row_ + 1 : 0;
+  since_detection_s_ = (carried ? since_detection_s_ : 0.0) + profile.total;
+  may_carry_ = !profile.rejected;
   profile.contacts = static_cast<int>(rows.size());
   time += params.dt;
   ++step_count;
@@ -287,6 +309,7 @@ void World::Step() {
   if (!profile.converged) ++unconverged_steps;
   if (profile.budget_stopped) ++budget_stopped_steps;
   if (profile.solve_skipped) ++skipped_solves;
+  if (profile.contacts_carried) ++carried_steps;
 }
 
 }  // namespace gs

@@ -291,6 +291,8 @@ struct SleepParams {
 /// up to 650 in its lift, 146 with Anderson acceleration); a live loop's time budget
 /// stops a solve before its cap.
 constexpr int kStepSweepCap = 1000;
+/// Steps in a row that may carry the last contacts (WorldParams::carry_contacts_after_s).
+constexpr int kMaxCarriedSteps = 2;
 /// The step's Anderson acceleration depth (NsgsParams::anderson_depth; docs/solver.md,
 /// "Anderson acceleration in the step"): the whole hand's closing and lift at the
 /// paper's densities took 105,008 sweeps without it, 31,592 with it.
@@ -354,6 +356,30 @@ struct WorldParams {
   /// unsolved). The sweep after a skipped one starts from older forces, and on the
   /// paper's grasp reached errors up to 0.13 where one-sweep steps stay below 1e-3.
   bool budget_may_skip_solve = false;
+  /// Steps short of time skip collision detection where little moved (s; 0: never,
+  /// the default): while the steps since the last detection, that one included, took
+  /// longer than this each on average, in the next one each body pair that has hardly
+  /// slid (carry_max_slide_m) carries the last step's contacts, moved with the
+  /// bodies as the contacts of a sleeping pair are (MoveWithBodies: the gap follows
+  /// the two anchors along the normal, the normal turns with body[1]), and the step
+  /// counts as carried (StepProfile::contacts_carried). At most kMaxCarriedSteps in
+  /// a row, never after a rejected step, a scene change or WakeAll, so that contacts
+  /// are detected at least every third step. No contact is missed (the bodies moved
+  /// less than the contact threshold against each other); what a carried contact
+  /// gets wrong is the gap's second-order term, curvature x (tangential motion)^2 / 2,
+  /// and the normal's turn over the slide. Set by loops paced by the wall clock
+  /// (live: the step budget's share of a timestep), where a step that detects and the
+  /// ones that carry fit in their timesteps when detecting ones do not
+  /// (docs/collision.md, "Carried contacts"). A step's result then depends on the
+  /// machine's speed.
+  double carry_contacts_after_s = 0.0;
+  /// In a step that may carry contacts, a body pair carries them only while each
+  /// contact's points have slid against the other body (across the contact's normal)
+  /// by at most this much (m) since the last step, and no point of either body has
+  /// moved against the other by the contact threshold
+  /// (core/carried_contacts.cpp): where the forces act stays within this of where
+  /// detection would put them (0.25 % of the paper box's control-point spacing).
+  double carry_max_slide_m = 5e-6;
   /// A step whose Gauss-Seidel ends unconverged continues with the semi-smooth
   /// Newton method on its assembled Delassus matrix (core/solver.cpp
   /// ContinueWithNewton), at most this many Newton steps (0: never), when it has
@@ -403,6 +429,8 @@ struct StepWork {
   int bodies_asleep = 0;      ///< free bodies asleep during this step's collision detection
   int pairs_asleep = 0;       ///< candidate pairs not tested (both asleep, or asleep against a body that does not move)
   int contacts_reused = 0;    ///< contacts of those pairs carried over from the last step
+  int pairs_carried = 0;      ///< pairs that kept their last contacts in a step short of time (WorldParams::carry_contacts_after_s)
+  int contacts_carried = 0;   ///< their contacts, carried over from the last step
   int limit_rows = 0;         ///< finger joint-limit rows in the solve (LimitRow)
 };
 
@@ -429,6 +457,9 @@ struct StepProfile {
   /// no time was left for a sweep (WorldParams::step_time_budget_s): the forces are
   /// the warm start, `iterations` is 0, and `residual` (0) was not measured
   bool solve_skipped = false;
+  /// some body pairs were not detected: they carried the last step's contacts
+  /// (WorldParams::carry_contacts_after_s; StepWork::pairs_carried)
+  bool contacts_carried = false;
   bool rejected = false;  ///< the step produced a non-finite value and was undone
   const char* reject_reason = "";  ///< the first stage that saw a non-finite value (static text)
   CollisionStats collision;
@@ -462,6 +493,7 @@ class World {
   int64_t unconverged_steps = 0;
   int64_t budget_stopped_steps = 0;  ///< of the unconverged steps, those ended by the time budget
   int64_t skipped_solves = 0;        ///< of those, steps that did not sweep (StepProfile::solve_skipped)
+  int64_t carried_steps = 0;         ///< steps in which pairs carried their contacts (StepProfile::contacts_carried)
   int64_t pass_through_steps = 0;    ///< of the rejected steps, those where a body passed through another
   int64_t pass_throughs_let = 0;     ///< steps accepted with a pass-through after pass_through_retries rejections
   int pass_through_streak = 0;       ///< rejected steps in a row for last_pass_through's pair
@@ -496,12 +528,25 @@ class World {
   /// motion took (the solver's share of step_time_budget_s is computed from them).
   std::chrono::steady_clock::time_point step_started() const { return step_started_; }
   double last_constrained_motion_s() const { return last_constrained_motion_s_; }
+  /// The step in progress's time budget (s; 0: none): params.step_time_budget_s, and
+  /// once its pairs have carried contacts no more than keeps the steps since the last
+  /// detection at params.carry_contacts_after_s each on average (the next detection
+  /// gets back the time the detecting step overran by).
+  double step_budget_s() const;
 
   // internals shared by the stages
   std::chrono::steady_clock::time_point step_started_{};
   double last_constrained_motion_s_ = 0.0;
   double last_sweep_s_ = 0.0;  ///< the last sweeping solve's time per sweep (warm start included)
   bool last_solve_skipped_ = false;
+  /// the steps since the last detection, that one included: their own time (s) and
+  /// how many carried (WorldParams::carry_contacts_after_s)
+  double since_detection_s_ = 0.0;
+  int carried_in_row_ = 0;
+  bool carrying_ = false;       ///< the step in progress may carry contacts (CarriesContacts)
+  size_t carry_cursor_ = 0;     ///< PairCarried's place in contacts_prev
+  bool may_carry_ = false;  ///< the last step was not rejected, and nothing reset the contacts since
+  bool CarriesContacts() const;
   std::vector<double> friction_;
   std::vector<uint8_t> no_touch_;  ///< 1 for the pairs SetCanTouch excluded, [a * bodies + b]; empty: none
   CollisionScratch collision_scratch;
@@ -509,7 +554,8 @@ class World {
   /// contacts reused) or collided, as one task whose contacts land in a lane
   struct PairTask {
     int i = 0, j = 0;
-    bool asleep = false;
+    bool kept = false;     ///< its last contacts reused (asleep or carried), not detected
+    bool carried = false;  ///< of those, carried in a step short of time
     int lane = 0, begin = 0, end = 0;  ///< where its contacts are
   };
   std::vector<PairTask> pair_tasks;
@@ -557,7 +603,15 @@ void WakeSleepingBodies(World& w);
 bool PairAsleep(const World& w, int i, int j);
 /// Appends the last step's contacts of pair (i, j), moved with the two bodies'
 /// poses since then (gap along the normal turned with body[1]).
-void ReuseContacts(World& w, int i, int j);
+void ReuseContacts(World& w, int i, int j, bool carried = false);
+/// A contact found at the bodies' poses of the last detection (Body::pose_detected),
+/// moved with them to their poses now: the gap follows the two anchors along the
+/// normal, the normal turns with body[1].
+void MoveWithBodies(const World& w, Contact* c);
+/// In a step that carries contacts (WorldParams::carry_contacts_after_s), whether
+/// pair (i, j), whose root spheres overlap, keeps its last contacts instead of being
+/// detected (core/carried_contacts.cpp). Call in the pair loop's order.
+bool PairCarried(World& w, int i, int j);
 /// Sleep, at the end of a step: rest times, bodies that fall asleep or wake.
 void UpdateSleep(World& w);
 

@@ -248,13 +248,14 @@ bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::str
   std::atomic<const char*> hud_tracker_state{"waiting"};
   std::atomic<double> hud_good_hz{0.0};
   w.params.budget_may_skip_solve = opt.skip_late_solves;
+  w.params.carry_contacts_after_s = CarryContactsAfter(opt.step_budget, opt.detect_every_step, dt);
   double residual_max = 0.0;  // simulation thread; read after it is joined
   const int tracked = sim.scene().tracked_body;
   const double start_z = tracked >= 0 ? w.bodies[tracked].pose.t.z() : 0.0;
   double max_rise = 0.0;  // simulation thread, as residual_max
   int max_contacts = 0;
   const int64_t unconverged_before = w.unconverged_steps, budget_before = w.budget_stopped_steps;
-  const int64_t skipped_solves_before = w.skipped_solves;
+  const int64_t skipped_solves_before = w.skipped_solves, carried_before = w.carried_steps;
   std::vector<double> step_ms;
   const size_t max_records = 4000000;
   step_ms.reserve(std::min<size_t>(max_records, opt.duration > 0 ? static_cast<size_t>(opt.duration / dt) + 16 : max_records));
@@ -429,8 +430,10 @@ bool RunLive(TrackedSim& sim, const LiveOptions& opt, LiveStats* stats, std::str
   stats->unconverged_steps = w.unconverged_steps - unconverged_before;
   stats->budget_stops = w.budget_stopped_steps - budget_before;
   stats->skipped_solves = w.skipped_solves - skipped_solves_before;
+  stats->carried_steps = w.carried_steps - carried_before;
   stats->residual_max = residual_max;
   w.params.step_time_budget_s = 0.0;
+  w.params.carry_contacts_after_s = 0.0;
   stats->datagrams = datagrams.load();
   stats->samples_applied = static_cast<uint64_t>(applied.load());
   stats->parse = parser.stats();

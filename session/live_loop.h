@@ -47,6 +47,9 @@ struct LiveOptions {
   /// arrival; the simulated time runs up to this many timesteps ahead of the clock.
   int lead_steps = 1;
   bool skip_late_solves = false;  ///< WorldParams::budget_may_skip_solve while live runs
+  /// Detect collisions in every step. Off: with a step budget, a step that follows one
+  /// past its budget carries that step's contacts (WorldParams::carry_contacts_after_s).
+  bool detect_every_step = false;
   /// threads the simulation steps on, its own included (TrackedSim::UseThreads),
   /// started by the simulation thread once it has its scheduling: on the other cores
   int threads = 1;
@@ -89,6 +92,7 @@ struct LiveStats {
   int64_t unconverged_steps = 0;  ///< steps whose solve did not reach the scene's tolerance
   int64_t budget_stops = 0;       ///< of those, steps ended by the step budget
   int64_t skipped_solves = 0;     ///< of those, steps with no time left for a sweep (the last forces kept)
+  int64_t carried_steps = 0;      ///< steps that carried the last contacts instead of detecting (WorldParams::carry_contacts_after_s)
   double residual_max = 0.0;      ///< largest solver error of a step that swept
   double sim_rate_hz() const { return wall_s > 0 ? static_cast<double>(steps) / wall_s : 0.0; }
   /// the datagrams judged as replay judges them (TrackedSim::tally)

@@ -210,6 +210,10 @@ int64_t StepSchedule::LatestBeginNs(int64_t k, double fraction) const {
   return DeadlineNs(k) - static_cast<int64_t>(std::llround(f * static_cast<double>(period_ns)));
 }
 
+double CarryContactsAfter(double step_budget, bool detect_every_step, double dt) {
+  return step_budget > 0.0 && !detect_every_step ? step_budget * dt : 0.0;
+}
+
 int64_t MonotonicNs() {
   timespec ts;
   clock_gettime(CLOCK_MONOTONIC, &ts);

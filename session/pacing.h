@@ -102,6 +102,13 @@ struct StepSchedule {
   int64_t LatestBeginNs(int64_t k, double fraction) const;
 };
 
+/// WorldParams::carry_contacts_after_s of a loop paced with this step budget (a
+/// fraction of the timestep dt): a step whose own work took longer than its budget's
+/// share of a timestep is followed by one that carries its contacts instead of
+/// detecting them; 0 (detect in every step) without a budget or with
+/// `detect_every_step`.
+double CarryContactsAfter(double step_budget, bool detect_every_step, double dt);
+
 /// CLOCK_MONOTONIC in nanoseconds.
 int64_t MonotonicNs();
 

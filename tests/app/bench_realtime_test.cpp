@@ -75,6 +75,13 @@ TEST(BenchRealtime, TwoSecondsGiveConsistentCounts) {
     // steps CSV test for the lead of 0, where every one of them is)
     EXPECT_LE(JsonField(*l, "overlong_steps"), JsonField(*l, "steps")) << *l;
   }
+  // steps whose pairs carried their contacts after steps past the budget: at most two in three
+  for (const std::string* l : {&without, &with}) {
+    EXPECT_GE(JsonField(*l, "carried_contact_steps"), 0) << *l;
+    EXPECT_LE(3 * JsonField(*l, "carried_contact_steps"), 2 * JsonField(*l, "steps") + 2) << *l;
+  }
+  EXPECT_EQ(JsonField(last, "carried_contact_steps"), JsonField(with, "carried_contact_steps"));
+  EXPECT_EQ(JsonField(last, "no_render_carried_contact_steps"), JsonField(without, "carried_contact_steps"));
   EXPECT_EQ(JsonField(last, "no_render_missed_own_work"), JsonField(without, "missed_own_work"));
   EXPECT_EQ(JsonField(last, "budget_stops"), JsonField(with, "budget_stops"));
   EXPECT_EQ(JsonField(last, "step_budget"), 0.8);
@@ -96,6 +103,17 @@ TEST(BenchRealtime, TwoSecondsGiveConsistentCounts) {
   EXPECT_EQ(JsonField(last, "frames"), JsonField(with, "frames"));
   EXPECT_EQ(JsonField(last, "no_render_missed_deadlines"), JsonField(without, "missed_deadlines"));
   EXPECT_NE(last.find("\"target_met\""), std::string::npos) << last;
+}
+
+// --detect-every-step: no step carries contacts, whatever the machine's speed
+TEST(BenchRealtime, DetectEveryStepCarriesNoContacts) {
+  const std::vector<std::string> lines =
+      RunJsonLines("bench realtime --seconds 0.5 --detect-every-step --json --scene " + std::string(GRASPSIM_SOURCE_DIR) +
+                       "/config/tracked_hand.yaml",
+                   "bench_realtime_detect.json");
+  ASSERT_EQ(lines.size(), 4u);
+  for (int i : {0, 1}) EXPECT_EQ(JsonField(lines[i], "carried_contact_steps"), 0) << lines[i];
+  EXPECT_EQ(JsonField(lines[3], "no_render_carried_contact_steps"), 0) << lines[3];
 }
 
 // --steps-csv: one line per step of each run, rendering first, its late steps

@@ -106,6 +106,16 @@ TEST(StepSafety, SteadyStateStepDoesNotAllocate) {
   ExpectSteadyStepsAllocateNothing(w, 10, 200);
 }
 
+// steps whose pairs carry their last contacts (WorldParams::carry_contacts_after_s;
+// here up to two of every three) allocate nothing either
+TEST(StepSafety, StepsCarryingTheLastContactsDoNotAllocate) {
+  World w;
+  BuildScene(w);
+  w.params.carry_contacts_after_s = 1e-12;  // every step that may carry does
+  ExpectSteadyStepsAllocateNothing(w, 10, 200);
+  EXPECT_GT(w.carried_steps, 100);
+}
+
 // the body pairs on a runner's lanes (World::UseRunner): listing, ordering and
 // gathering them allocates nothing either
 TEST(StepSafety, SteadyStateStepOnARunnersLanesDoesNotAllocate) {

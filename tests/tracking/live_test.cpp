@@ -71,6 +71,9 @@ TEST(Live, ReceivesSendOnLoopbackAtTheRateSentAndHoldsItsRate) {
   EXPECT_LE(JsonNumber(json, "budget_stops"), JsonNumber(json, "unconverged_steps")) << r.output;
   EXPECT_LE(JsonNumber(json, "unconverged_steps"), JsonNumber(json, "steps")) << r.output;
   EXPECT_TRUE(std::isfinite(JsonNumber(json, "residual_max"))) << r.output;
+  // steps whose pairs carried their contacts after steps past the budget: at most two in three
+  EXPECT_GE(JsonNumber(json, "carried_contact_steps"), 0) << r.output;
+  EXPECT_LE(3 * JsonNumber(json, "carried_contact_steps"), 2 * JsonNumber(json, "steps") + 2) << r.output;
   EXPECT_EQ(JsonNumber(json, "lead_steps"), 1) << r.output;  // a step may begin one timestep early (session/pacing.h)
 
   // what was published: poses and contacts at about 50 Hz each
