@@ -16,6 +16,7 @@ struct Family {
 
 const Family kFamilies[] = {
     {"incline", ValidateIncline},
+    {"roll", ValidateRoll},
     {"pinch", ValidatePinch},
     {"slide", ValidateSlide},
     {"hertz", ValidateHertz},

@@ -30,6 +30,11 @@ std::vector<ValidationResult> ValidateIncline(const ValidationOptions& opt);
 /// P: holds for mu >= 1.005 mu*, falls for mu <= 0.995 mu*, slides at
 /// g (1 - mu / mu*) below mu* = m g / (3 P); both contact modes.
 std::vector<ValidationResult> ValidatePinch(const ValidationOptions& opt);
+/// A solid ball let go on a surface tilted by 20 degrees: at mu 0.5 it rolls at 5/7 g
+/// sin a with its spin keeping pace, at mu 0.05 it slides at g (sin a - mu cos a) and spins up
+/// at 5 mu g cos a / (2 r); rigid, Gaussian and Boussinesq on the analytic plane, rigid
+/// on a box slab in both contact modes.
+std::vector<ValidationResult> ValidateRoll(const ValidationOptions& opt);
 /// A fingertip dragged along a flat face at constant normal force: the tangential
 /// over the normal force is mu at every step (no ripple), in both contact modes.
 std::vector<ValidationResult> ValidateSlide(const ValidationOptions& opt);

@@ -66,6 +66,25 @@ TEST(Validation, InclineSticksBelowAndSlidesAboveTheFrictionAngle) {
   EXPECT_LT(slide2->error, 0.05) << slide2->detail;
 }
 
+TEST(Validation, ABallRollsAt5Over7GSinAAndSlidesAndSpinsUpBelowTheRollingFriction) {
+  const auto v = ValidateRoll(Quick());
+  ExpectAllPass(v);
+  // rigid, Gaussian and Boussinesq on the plane; rigid on a slab in both contact modes
+  for (const auto& [ball, mode] : {std::pair<std::string, std::string>{"rigid_plane", ""}, {"gaussian_plane", ""},
+                                   {"boussinesq_plane", ""}, {"rigid_slab_two-pass", "two-pass"},
+                                   {"rigid_slab_one-pass", "one-pass"}}) {
+    const ValidationResult* roll = Find(v, "roll_" + ball, mode);
+    const ValidationResult* no_slip = Find(v, "roll_" + ball + "_no_slip", mode);
+    const ValidationResult* slide = Find(v, "slide_spin_" + ball, mode);
+    ASSERT_NE(roll, nullptr) << ball;
+    ASSERT_NE(no_slip, nullptr) << ball;
+    ASSERT_NE(slide, nullptr) << ball;
+    EXPECT_LT(roll->error, 0.01) << roll->detail;        // against 5/7 g sin a
+    EXPECT_LT(no_slip->error, 0.025) << no_slip->detail;  // the spin keeps pace: alpha r = a
+    EXPECT_LT(slide->error, 0.015) << slide->detail;     // g (sin a - mu cos a) and 5 mu g cos a / (2 r)
+  }
+}
+
 TEST(Validation, HertzExponentRadiusAndDepthAgainstTheExactSphere) {
   const auto v = ValidateHertz(Quick());
   ExpectAllPass(v);
