@@ -17,11 +17,7 @@
 namespace gs::app {
 namespace {
 
-enum class ESurface { Plane, SlabTwoPass, SlabOnePass };
-
-const char* ModeName(ESurface s) {
-  return s == ESurface::SlabTwoPass ? "two-pass" : s == ESurface::SlabOnePass ? "one-pass" : "";
-}
+using ESurface = ETiltedSurface;
 
 struct InclineRun {
   double slide = 0.0;  // distance along the slope over the timed interval (m)
@@ -29,22 +25,10 @@ struct InclineRun {
   bool finite = true;
 };
 
-// the tilted surface: its top face through the origin, normal plane.R z
+// the tilted surface: the plane, or a 16 x 8 cm slab 1 cm thick (the block starts 5 cm
+// uphill of its centre)
 void AddSurface(World& w, ESurface surface, const Pose& plane) {
-  if (surface == ESurface::Plane) {
-    AddBody(w, PlaneSpec("plane", plane));
-    return;
-  }
-  BodySpec s;  // 16 x 8 cm, 1 cm thick: the block starts 5 cm uphill of its centre
-  s.name = "slab";
-  s.shape.type = EShape::Box;
-  s.shape.half_extents = Vec3(0.08, 0.04, 0.005);
-  s.geometry.points = 24000;
-  s.geometry.control_points = 3000;
-  s.motion = EMotion::Fixed;
-  s.pose = Pose{plane.R, plane.Apply(Vec3(0, 0, -0.005))};
-  s.emits_contacts = surface == ESurface::SlabTwoPass;
-  AddBody(w, s);
+  AddTiltedSurface(w, surface, plane, Vec3(0.08, 0.04, 0.005), 24000, 3000);
 }
 
 // Lands the block (0.5 s), then times `seconds`. On the slab, the landing's

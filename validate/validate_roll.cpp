@@ -27,7 +27,7 @@ constexpr double kRolls = 0.5;    // friction at which it rolls (2/7 tan(a) = 0.
 constexpr double kSlides = 0.05;  // ... and at which it slides
 
 enum class EBall { Rigid, Gaussian, Boussinesq };
-enum class ESurface { Plane, SlabTwoPass, SlabOnePass };
+using ESurface = ETiltedSurface;
 
 const char* BallName(EBall b) {
   return b == EBall::Gaussian ? "gaussian" : b == EBall::Boussinesq ? "boussinesq" : "rigid";
@@ -35,26 +35,10 @@ const char* BallName(EBall b) {
 const char* SurfaceName(ESurface s) {
   return s == ESurface::SlabTwoPass ? "slab_two-pass" : s == ESurface::SlabOnePass ? "slab_one-pass" : "plane";
 }
-const char* ModeName(ESurface s) {
-  return s == ESurface::SlabTwoPass ? "two-pass" : s == ESurface::SlabOnePass ? "one-pass" : "";
-}
-
-// the tilted surface, its top face through the origin
+// the tilted surface: the plane, or a 60 x 12 cm slab 2 cm thick (the ball starts 25 cm
+// uphill of its centre)
 void AddSurface(World& w, ESurface surface, const Pose& slope) {
-  if (surface == ESurface::Plane) {
-    AddBody(w, PlaneSpec("plane", slope));
-    return;
-  }
-  BodySpec s;  // 60 x 12 cm, 2 cm thick: the ball starts 25 cm uphill of its centre
-  s.name = "slab";
-  s.shape.type = EShape::Box;
-  s.shape.half_extents = Vec3(0.3, 0.06, 0.01);
-  s.geometry.points = 80000;
-  s.geometry.control_points = 10000;
-  s.motion = EMotion::Fixed;
-  s.pose = Pose{slope.R, slope.Apply(Vec3(0, 0, -0.01))};
-  s.emits_contacts = surface == ESurface::SlabTwoPass;
-  AddBody(w, s);
+  AddTiltedSurface(w, surface, slope, Vec3(0.3, 0.06, 0.01), 80000, 10000);
 }
 
 BodySpec Ball(EBall kind, const Pose& at, bool quick) {

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <string>
 
+#include "core/world.h"
+#include "scene/code_scenes.h"
 #include "session/console.h"
 #include "validate/validation.h"
 
@@ -26,6 +28,32 @@ inline ValidationResult Result(const std::string& name, double error, double tol
   r.detail = detail;
   r.contact_mode = contact_mode;
   return r;
+}
+
+/// The tilted surface of the incline and roll families, its top face through the
+/// origin of `slope` (normal slope.R z): the analytic plane, or a fixed rigid box slab
+/// of half extents `half` and `points` / `control_points`, in two-pass contact (its
+/// control points projected too) or one-pass.
+enum class ETiltedSurface { Plane, SlabTwoPass, SlabOnePass };
+inline void AddTiltedSurface(World& w, ETiltedSurface surface, const Pose& slope, const Vec3& half, int points,
+                             int control_points) {
+  if (surface == ETiltedSurface::Plane) {
+    AddBody(w, PlaneSpec("plane", slope));
+    return;
+  }
+  BodySpec s;
+  s.name = "slab";
+  s.shape.type = EShape::Box;
+  s.shape.half_extents = half;
+  s.geometry.points = points;
+  s.geometry.control_points = control_points;
+  s.motion = EMotion::Fixed;
+  s.pose = Pose{slope.R, slope.Apply(Vec3(0, 0, -half.z()))};
+  s.emits_contacts = surface == ETiltedSurface::SlabTwoPass;
+  AddBody(w, s);
+}
+inline const char* ModeName(ETiltedSurface s) {
+  return s == ETiltedSurface::SlabTwoPass ? "two-pass" : s == ETiltedSurface::SlabOnePass ? "one-pass" : "";
 }
 
 }  // namespace gs::app
