@@ -23,6 +23,16 @@ void LeaveTheCreatorsCore(const cpu_set_t& creator) {
   if (CPU_COUNT(&others) > 0) pthread_setaffinity_np(pthread_self(), sizeof others, &others);  // best effort
 }
 
+// one turn of a busy wait: tells the core (and a hyperthread sharing it) that this
+// thread only waits, so that the simulation thread beside it runs at full speed
+inline void CpuRelax() {
+#if defined(__x86_64__) || defined(__i386__)
+  __builtin_ia32_pause();
+#elif defined(__aarch64__)
+  asm volatile("yield");
+#endif
+}
+
 int64_t NowNs() {
   return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch())
       .count();
@@ -143,6 +153,7 @@ bool WorkerPool::AwaitDueJob(uint32_t seen, uint32_t expected) {
   const int64_t until = due + std::chrono::nanoseconds(kExpectSpin).count();
   while (generation_.load(std::memory_order_acquire) == seen && !stop_.load(std::memory_order_relaxed)) {
     if (NowNs() > until) return false;
+    CpuRelax();
   }
   return true;
 }
@@ -167,6 +178,7 @@ void WorkerPool::Work(int thread) {
     const auto until = std::chrono::steady_clock::now() + kExpectSpin;
     while (generation_.load(std::memory_order_acquire) == seen && !stop_.load(std::memory_order_relaxed) &&
            std::chrono::steady_clock::now() < until) {
+      CpuRelax();
     }
     if (stop_.load()) return;
     const uint32_t g = generation_.load(std::memory_order_acquire);
