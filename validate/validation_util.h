@@ -15,11 +15,13 @@ inline constexpr double kG = 9.81;
 
 /// One case: pass when the error is finite and within the tolerance. A case whose
 /// result is made after a stop request (Ctrl-C, SIGTERM) was cut short: it has no
-/// verdict.
+/// verdict. A case run in a contact mode has it in its name too ("_two-pass" added
+/// where the name does not say it), so that every case of a run has its own name.
 inline ValidationResult Result(const std::string& name, double error, double tolerance, const std::string& unit,
                                const std::string& detail, const std::string& contact_mode = "") {
   ValidationResult r;
-  r.name = name;
+  const bool says_mode = contact_mode.empty() || name.find(contact_mode) != std::string::npos;
+  r.name = says_mode ? name : name + "_" + contact_mode;
   r.error = error;
   r.tolerance = tolerance;
   r.interrupted = StopRequested();

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <set>
 #include <string>
 #include <utility>
 #include <vector>
@@ -26,8 +27,16 @@ ValidationOptions Quick() {
 }
 
 // every case of a family passes, and the family has the cases and modes it should
+// every case passes, under a name of its own (a JSON reader tells the cases apart by name)
 void ExpectAllPass(const std::vector<ValidationResult>& v) {
-  for (const ValidationResult& r : v) EXPECT_TRUE(r.pass) << r.name << " " << r.contact_mode << ": " << r.detail;
+  std::set<std::string> names;
+  for (const ValidationResult& r : v) {
+    EXPECT_TRUE(r.pass) << r.name << " " << r.contact_mode << ": " << r.detail;
+    EXPECT_TRUE(names.insert(r.name).second) << "two cases named " << r.name;
+    if (!r.contact_mode.empty()) {
+      EXPECT_NE(r.name.find(r.contact_mode), std::string::npos) << r.name;
+    }
+  }
 }
 
 const ValidationResult* Find(const std::vector<ValidationResult>& v, const std::string& name,
@@ -52,16 +61,16 @@ TEST(Validation, InclineSticksBelowAndSlidesAboveTheFrictionAngle) {
     EXPECT_LT(slide->error, 0.05) << slide->detail;  // relative error of the acceleration
   }
   for (const char* mode : {"two-pass", "one-pass"}) {
-    ASSERT_NE(Find(v, "incline_slab_mu0.4_0.99", mode), nullptr) << mode;
-    ASSERT_NE(Find(v, "incline_slab_mu0.4_1.01", mode), nullptr) << mode;
+    ASSERT_NE(Find(v, std::string("incline_slab_mu0.4_0.99_") + mode, mode), nullptr) << mode;
+    ASSERT_NE(Find(v, std::string("incline_slab_mu0.4_1.01_") + mode, mode), nullptr) << mode;
   }
-  const ValidationResult* stick = Find(v, "incline_slab_mu0.4_0.99", "one-pass");
-  const ValidationResult* slide = Find(v, "incline_slab_mu0.4_1.01", "one-pass");
+  const ValidationResult* stick = Find(v, "incline_slab_mu0.4_0.99_one-pass", "one-pass");
+  const ValidationResult* slide = Find(v, "incline_slab_mu0.4_1.01_one-pass", "one-pass");
   EXPECT_LT(stick->error, 1e-6) << stick->detail;
   EXPECT_LT(slide->error, 0.05) << slide->detail;
   // two-pass: sticks at 0.99 atan(mu), slides at 1.01 at g (sin a - mu cos a)
-  const ValidationResult* stick2 = Find(v, "incline_slab_mu0.4_0.99", "two-pass");
-  const ValidationResult* slide2 = Find(v, "incline_slab_mu0.4_1.01", "two-pass");
+  const ValidationResult* stick2 = Find(v, "incline_slab_mu0.4_0.99_two-pass", "two-pass");
+  const ValidationResult* slide2 = Find(v, "incline_slab_mu0.4_1.01_two-pass", "two-pass");
   EXPECT_LT(stick2->error, 1e-6) << stick2->detail;
   EXPECT_LT(slide2->error, 0.05) << slide2->detail;
 }
@@ -91,9 +100,10 @@ TEST(Validation, HertzExponentRadiusAndDepthAgainstTheExactSphere) {
   // the Boussinesq sphere on the plane, the rigid sphere on a Boussinesq box in both modes
   for (const auto& [scene, mode] : {std::pair<std::string, std::string>{"sphere", ""}, {"flat", "two-pass"},
                                     {"flat", "one-pass"}}) {
-    const ValidationResult* exponent = Find(v, "hertz_" + scene + "_exponent", mode);
-    const ValidationResult* radius = Find(v, "hertz_" + scene + "_radius", mode);
-    const ValidationResult* depth = Find(v, "hertz_" + scene + "_depth", mode);
+    const std::string in_mode = mode.empty() ? "" : "_" + mode;
+    const ValidationResult* exponent = Find(v, "hertz_" + scene + "_exponent" + in_mode, mode);
+    const ValidationResult* radius = Find(v, "hertz_" + scene + "_radius" + in_mode, mode);
+    const ValidationResult* depth = Find(v, "hertz_" + scene + "_depth" + in_mode, mode);
     ASSERT_NE(exponent, nullptr) << scene << " " << mode;
     ASSERT_NE(radius, nullptr) << scene << " " << mode;
     ASSERT_NE(depth, nullptr) << scene << " " << mode;
