@@ -17,8 +17,10 @@ void PrintResult(const ValidationResult& r, bool json) {
     std::string mode;
     if (!r.contact_mode.empty()) mode = ",\"contact_mode\":\"" + r.contact_mode + "\"";
     if (r.interrupted) mode += ",\"interrupted\":true";
+    // a case cut short by a stop has no verdict: pass is null, as the text's STOP line says
+    const char* pass = r.interrupted ? "null" : r.pass ? "true" : "false";
     std::printf("{\"name\":\"%s\",\"error\":%.6g,\"tolerance\":%.6g,\"unit\":\"%s\",\"pass\":%s%s}\n",
-                r.name.c_str(), r.error, r.tolerance, r.unit.c_str(), r.pass ? "true" : "false", mode.c_str());
+                r.name.c_str(), r.error, r.tolerance, r.unit.c_str(), pass, mode.c_str());
   } else if (r.interrupted) {
     std::printf("%-16s STOP interrupted before its end: no verdict\n", r.name.c_str());
   } else {
@@ -43,7 +45,7 @@ void AddValidateCommand(CLI::App& app, int* exit_code) {
   cmd->add_option("name", opt->name, "all, or one family of cases: " + names.substr(2))
       ->type_name("CASE")
       ->capture_default_str();
-  cmd->add_flag("--json", opt->json, "one JSON object per case: name, error, pass");
+  cmd->add_flag("--json", opt->json, "one JSON object per case: name, error, pass (null for a case a stop cut short, marked interrupted)");
   cmd->add_flag("--quick", opt->v.quick, "shorter holds and coarser sampling");
   cmd->add_flag("--quiet", opt->quiet, "no line announcing each family");
   SetHelpFooter(cmd,

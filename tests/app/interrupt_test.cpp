@@ -171,6 +171,29 @@ TEST(Interrupt, ValidateKeepsTheCasesItFinishedAndExits130) {
   std::filesystem::remove_all(dir);
 }
 
+// a case cut short has no verdict in JSON either: pass null, never false (a reader
+// that stops validate on a clock must not count the case it cut as failed). The stop
+// comes once the slide family is written, while the hertz family runs (seconds long),
+// whose cases come out cut short.
+TEST(Interrupt, ValidateJsonGivesACaseCutShortNoVerdict) {
+  const std::string dir = TempDir("validate_json");
+  Command v({"validate", "all", "--json", "--quick"}, dir + "/log.txt");
+  ASSERT_TRUE(v.WaitForText("\"slide_flat_rigid_one-pass\"")) << v.Output();
+  v.SignalGroup(SIGTERM);
+  EXPECT_EQ(v.Wait(), 130) << v.Output();
+  const std::string out = v.Output();
+  EXPECT_EQ(out.find("\"pass\":false"), std::string::npos) << out;  // the finished cases pass
+  int cut = 0;
+  for (size_t at = out.find("\"interrupted\":true"); at != std::string::npos;
+       at = out.find("\"interrupted\":true", at + 1), ++cut) {
+    const size_t line = out.rfind('\n', at);
+    const size_t begin = line == std::string::npos ? 0 : line + 1;
+    EXPECT_NE(out.substr(begin, at - begin).find("\"pass\":null"), std::string::npos) << out;
+  }
+  EXPECT_GE(cut, 1) << out;
+  std::filesystem::remove_all(dir);
+}
+
 TEST(Interrupt, StressEndsWithASummaryMarkedInterrupted) {
   const std::string dir = TempDir("stress");
   Command s({"stress", "--json"}, dir + "/log.txt");
