@@ -92,8 +92,10 @@ void MoveArticulations(World& w) {
     } else {
       Body& b = w.bodies[a.body];
       b.pose = AdvancePose(b.pose_prev, dq);
-      b.velocity = dq.head<3>() / dt;
-      b.angular_velocity = dq.tail<3>() / dt;
+      // a starting overlap's push-out moved the body without giving it its speed
+      const Vec6 dv = w.profile.push_out_split ? Vec6(a.dq_free + a.dq_velocity) : dq;
+      b.velocity = dv.head<3>() / dt;
+      b.angular_velocity = dv.tail<3>() / dt;
     }
   }
 }

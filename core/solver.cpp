@@ -269,7 +269,7 @@ double StepGapScale(const WorldParams& wp) {
   return ((g > 0.0 && std::isfinite(g)) ? g : 9.81) * wp.dt * wp.dt;
 }
 
-void SolveContacts(World& w) {
+void SolveContacts(World& w, bool may_skip) {
   using Clock = std::chrono::steady_clock;
   const auto t0 = Clock::now();
   WorldDelassus op(w);
@@ -294,7 +294,7 @@ void SolveContacts(World& w) {
   }
   // no time left for one sweep (and the last step did sweep, and nearly every
   // contact has a last force): the warm start stands
-  if (n > 0 && w.step_budget_s() > 0.0 && w.params.budget_may_skip_solve && w.last_sweep_s_ > 0.0 &&
+  if (n > 0 && may_skip && w.step_budget_s() > 0.0 && w.params.budget_may_skip_solve && w.last_sweep_s_ > 0.0 &&
       !w.last_solve_skipped_ &&
       20 * (contacts - w.profile.work.warm_started) <= contacts) {
     const double spent = std::chrono::duration<double>(t0 - w.step_started()).count();

@@ -140,6 +140,7 @@ void World::Finalize() {
     b.u.assign(leaves, Vec3::Zero());
     b.u_free.assign(leaves, Vec3::Zero());
     b.u_acc.assign(leaves, Vec3::Zero());
+    b.u_acc_kept.assign(leaves, Vec3::Zero());
     b.u_spread.assign(leaves, 0.0);
     b.ForgetSpreads();
     b.u_changed.assign(leaves, 0);
@@ -222,6 +223,7 @@ void World::Finalize() {
   limit_rows.reserve(max_limits);
   limit_warm.assign(max_limits, 0.0);
   solve_r.reserve(params.max_contacts + max_limits);
+  push_keep.reserve(params.max_contacts + max_limits);
   // merged influences: a few dozen control points per deformable contact side;
   // grown (once) by a scene with wider influences, never in the steady state
   side_inf_idx.reserve(static_cast<size_t>(64) * params.max_contacts);
@@ -287,7 +289,9 @@ void World::Step() {
   DetectCollisions(*this);
   for (Body& b : bodies) b.pose_detected = b.pose;
   BuildContactSpace(*this);
+  AllowStartingOverlaps(*this);
   SolveContacts(*this);
+  PushOutOverlaps(*this);
   const auto t2 = Clock::now();
   ConstrainedMotion(*this);
   UpdateSleep(*this);

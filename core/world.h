@@ -74,6 +74,10 @@ struct Body {
   std::vector<Vec3> u;        ///< control-point displacements (rest frame, m)
   std::vector<Vec3> u_free;   ///< this step's free displacements
   std::vector<Vec3> u_acc;    ///< displacement from this step's contact forces
+  /// steps left in which this body works off the overlap it started the scene with,
+  /// pushed out without speed (core/push_out.cpp, CountPlacementSteps)
+  int placement_steps = 0;
+  std::vector<Vec3> u_acc_kept;  ///< the step solve's u_acc, kept while PushOutOverlaps solves the push
   std::vector<double> u_spread;
   /// u_spread's bound (constrained_motion.cpp, UpdateSpreads): each control point's
   /// spread as last measured, and spread_slack (twice the sum over the steps of the
@@ -182,6 +186,9 @@ struct Articulation {
   Mat6 a_inv = Mat6::Zero();  ///< inverse generalized mobility (dof units per N)
   Vec6 dq_free = Vec6::Zero();
   Vec6 dq = Vec6::Zero();     ///< accumulated A^-1 J^T f of the current forces
+  /// the body's motion without the push-out of starting overlaps (PushOutOverlaps):
+  /// its end-of-step velocity is (dq_free + dq_velocity) / dt in such a step
+  Vec6 dq_velocity = Vec6::Zero();
 };
 
 /// Eq. 8 interpolation of one contact point over its body's control points.
@@ -319,6 +326,13 @@ struct WorldParams {
   /// the body (a 4 mm overlap removed in one 1 ms step would leave at 4 m/s).
   /// Overlap made by the step's own free motion is always removed at once.
   double max_push_out_speed = 0.1;
+  /// A body placed overlapping another is pushed out of it without being given the
+  /// push's speed: for the steps it takes to work off the overlap it starts the scene
+  /// with, its poses come from a frictionless push added to the step's motion and its
+  /// velocities from a solve that keeps the overlap from deepening (core/push_out.cpp).
+  /// Without this a box set on a table at its half height (0.125 mm inside its MLS
+  /// surface) was pushed out at 0.1 m/s and jumped 0.5 mm. false: the speed is kept.
+  bool push_out_keeps_no_speed = true;
   /// A step in which a body's centre passes into another body is rejected (the last
   /// state kept, FindPassThrough) so that a passing glitch, a tracker's bad frame,
   /// cannot throw a body through another. Each retry is the same step again while
@@ -432,6 +446,7 @@ struct StepWork {
   int pairs_carried = 0;      ///< pairs that kept their last contacts in a step short of time (WorldParams::carry_contacts_after_s)
   int contacts_carried = 0;   ///< their contacts, carried over from the last step
   int limit_rows = 0;         ///< finger joint-limit rows in the solve (LimitRow)
+  int push_out_splits = 0;    ///< frictionless push-out solves of starting overlaps (PushOutOverlaps)
 };
 
 /// Per-stage times of the last step (s), in the layout of the paper's Figures 6 and 7.
@@ -460,6 +475,10 @@ struct StepProfile {
   /// some body pairs were not detected: they carried the last step's contacts
   /// (WorldParams::carry_contacts_after_s; StepWork::pairs_carried)
   bool contacts_carried = false;
+  /// a body working off the overlap it was placed with was pushed out by a frictionless
+  /// solve, moved without being given its speed (PushOutOverlaps;
+  /// WorldParams::push_out_keeps_no_speed)
+  bool push_out_split = false;
   bool rejected = false;  ///< the step produced a non-finite value and was undone
   const char* reject_reason = "";  ///< the first stage that saw a non-finite value (static text)
   CollisionStats collision;
@@ -580,6 +599,14 @@ class World {
   KeyIndex warm_index;                ///< key -> index in warm_prev (built by the contact space)
   std::vector<double> limit_warm;     ///< last step's force (N) of each limit row slot (LimitRow::slot), 0 when inactive
   std::vector<Vec3> solve_r;
+  /// PushOutOverlaps: the step solve's free gaps, forces and friction of every row
+  /// while the push is solved (reserved by Finalize), and whether the step has one to do
+  struct PushKeep {
+    Vec3 q, r;
+    double mu;
+  };
+  std::vector<PushKeep> push_keep;
+  bool push_out_pending = false;
   std::vector<int> side_inf_idx;      ///< merged influences of the contact sides (see ContactSide)
   std::vector<double> side_inf_phi;
   std::vector<SideJacobian> side_jacobians;  ///< of the finger sides (see ContactSide::jacobian)
@@ -652,7 +679,18 @@ void BuildContactSpace(World& w);
 void BuildJointLimitRows(World& w);
 /// Keeps the step's limit forces by slot for the next warm start (called by ConstrainedMotion).
 void KeepLimitForces(World& w);
-void SolveContacts(World& w);
+/// may_skip: the step's time budget may keep the warm start without a sweep
+/// (WorldParams::budget_may_skip_solve); PushOutOverlaps' solve always sweeps.
+void SolveContacts(World& w, bool may_skip = true);
+/// Before SolveContacts: the overlaps of the bodies still working off the one they
+/// were placed with are allowed to stay (the rows' free gaps raised by them, held_back
+/// all of them), so that the solve gives the forces and velocities without the push;
+/// true when some row is so (core/push_out.cpp; WorldParams::push_out_keeps_no_speed).
+bool AllowStartingOverlaps(World& w);
+/// After SolveContacts: a frictionless normal-only solve removes what
+/// max_push_out_speed allows of those overlaps, its motion added to the positions and
+/// not to the velocities.
+void PushOutOverlaps(World& w);
 /// The scaled measure's gap for the step (NsgsParams::gap_scale): |g| dt^2
 /// (9.81 m/s^2 when the scene has no gravity).
 double StepGapScale(const WorldParams& wp);
