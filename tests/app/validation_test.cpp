@@ -193,6 +193,14 @@ TEST(Validation, StacksStandAtEveryMassRatioAtTheDefaultTolerance) {
   }
 }
 
+TEST(Validation, BoxesSetTouchingSettleWithoutAJump) {
+  const auto v = ValidateStack(Quick());
+  const ValidationResult* r = Find(v, "stack_placed_touching");
+  ASSERT_NE(r, nullptr);
+  EXPECT_TRUE(r->pass) << r->detail;
+  EXPECT_LE(r->error, 2e-5) << r->detail;  // m above where they settle (2 mm with the push's speed kept)
+}
+
 TEST(Validation, EveryMassTimesKLeavesTheStackUnchanged) {
   const auto v = ValidateScale(Quick());
   for (const char* name : {"scale_x8", "scale_x1024", "scale_x10", "scale_x1000", "scale_x8_sweeps",
