@@ -38,18 +38,29 @@ bool PlacementRow(const World& w, const ContactRow& r) {
   return w.bodies[r.contact.body[0]].placement_steps > 0 || w.bodies[r.contact.body[1]].placement_steps > 0;
 }
 
-// At the first step, every free body that starts overlapping is given the steps its
-// deepest overlap takes at the push-out speed (and one more); later steps count down
+// An overlap this small (m) is rounding: a body whose rows start no deeper than it has
+// worked its placement off
+constexpr double kPlacementWorkedOff = 1e-9;
+
+// At the first step, every free body that starts overlapping is given twice the steps
+// its deepest overlap takes at the push-out speed, and ten more, as a bound: the push
+// removes up to the speed's share a step, to the solver's tolerance. Later steps count
+// down, and end a body's placement at the first step none of its rows starts
+// overlapping (what is left after the bound is pushed out as any overlap is)
 void CountPlacementSteps(World& w) {
   if (w.step_count > 0) {
+    for (Body& b : w.bodies) b.placement_overlap = false;
+    for (const ContactRow& r : w.rows)
+      if (r.gap_start < -kPlacementWorkedOff)
+        for (int side : r.contact.body) w.bodies[side].placement_overlap = true;
     for (Body& b : w.bodies)
-      if (b.placement_steps > 0) --b.placement_steps;
+      if (b.placement_steps > 0) b.placement_steps = b.placement_overlap ? b.placement_steps - 1 : 0;
     return;
   }
   const double per_step = w.params.max_push_out_speed * w.params.dt;
   for (const ContactRow& r : w.rows) {
-    if (!(r.gap_start < 0.0)) continue;
-    const int steps = per_step > 0.0 ? static_cast<int>(std::ceil(-r.gap_start / per_step)) + 1 : 1;
+    if (!(r.gap_start < -kPlacementWorkedOff)) continue;
+    const int steps = per_step > 0.0 ? 2 * static_cast<int>(std::ceil(-r.gap_start / per_step)) + 10 : 10;
     for (int side : r.contact.body) {
       Body& b = w.bodies[side];
       if (b.motion == EMotion::Free) b.placement_steps = std::max(b.placement_steps, steps);

@@ -74,9 +74,10 @@ struct Body {
   std::vector<Vec3> u;        ///< control-point displacements (rest frame, m)
   std::vector<Vec3> u_free;   ///< this step's free displacements
   std::vector<Vec3> u_acc;    ///< displacement from this step's contact forces
-  /// steps left in which this body works off the overlap it started the scene with,
-  /// pushed out without speed (core/push_out.cpp, CountPlacementSteps)
+  /// steps left (at most) in which this body works off the overlap it started the scene
+  /// with, pushed out without speed (core/push_out.cpp, CountPlacementSteps)
   int placement_steps = 0;
+  bool placement_overlap = false;  ///< scratch of CountPlacementSteps: a row of this body starts overlapping
   std::vector<Vec3> u_acc_kept;  ///< the step solve's u_acc, kept while PushOutOverlaps solves the push
   std::vector<double> u_spread;
   /// u_spread's bound (constrained_motion.cpp, UpdateSpreads): each control point's
