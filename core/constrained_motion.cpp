@@ -92,7 +92,7 @@ void MoveArticulations(World& w) {
     } else {
       Body& b = w.bodies[a.body];
       b.pose = AdvancePose(b.pose_prev, dq);
-      // a starting overlap's push-out moved the body without giving it its speed
+      // a placement's push-out moved the body without giving it its speed (core/push_out.cpp)
       const Vec6 dv = w.profile.push_out_split ? Vec6(a.dq_free + a.dq_velocity) : dq;
       b.velocity = dv.head<3>() / dt;
       b.angular_velocity = dv.tail<3>() / dt;

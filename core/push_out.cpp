@@ -14,7 +14,6 @@
 //   any other contact in; its motion is added to the positions only.
 #include <algorithm>
 #include <cmath>
-#include <chrono>
 
 #include "core/world.h"
 
