@@ -8,22 +8,27 @@
 namespace gs {
 namespace {
 
-// a rigid ball of radius 1 cm whose centre starts `depth` below touching a plane
-void BallInPlane(World& w, double depth) {
+// a plane (body 0) and one rigid body (body 1) whose centre starts at height z
+void OnPlane(World& w, BodySpec b, int points, int control_points, double mass, double z) {
   BodySpec plane;
   plane.name = "plane";
   plane.is_plane = true;
   AddBody(w, plane);
+  b.geometry.points = points;
+  b.geometry.control_points = control_points;
+  b.mass = mass;
+  b.pose = Pose::Translation(Vec3(0, 0, z));
+  ASSERT_EQ(AddBody(w, b), 1);
+  w.Finalize();
+}
+
+// a rigid ball of radius 1 cm whose centre starts `depth` below touching a plane
+void BallInPlane(World& w, double depth) {
   BodySpec b;
   b.name = "ball";
   b.shape.type = EShape::Sphere;
   b.shape.radius = 0.01;
-  b.geometry.points = 800;
-  b.geometry.control_points = 120;
-  b.mass = 0.05;
-  b.pose = Pose::Translation(Vec3(0, 0, 0.01 - depth));
-  ASSERT_EQ(AddBody(w, b), 1);
-  w.Finalize();
+  OnPlane(w, b, 800, 120, 0.05, 0.01 - depth);
 }
 
 TEST(PushOut, DeepStartingOverlapLeavesAtTheBoundedSpeed) {
@@ -92,20 +97,12 @@ TEST(PushOut, ABoxPlacedTouchingATableDoesNotJump) {
   for (const bool split : {true, false}) {
     World w;
     w.params.push_out_keeps_no_speed = split;
-    BodySpec plane;
-    plane.name = "plane";
-    plane.is_plane = true;
-    AddBody(w, plane);
     BodySpec b;
     b.name = "box";
     b.shape.type = EShape::Box;
     b.shape.half_extents = Vec3::Constant(0.025);
-    b.geometry.points = 6000;
-    b.geometry.control_points = 800;
-    b.mass = 1.0;
-    b.pose = Pose::Translation(Vec3(0, 0, 0.025));
-    ASSERT_EQ(AddBody(w, b), 1);
-    w.Finalize();
+    OnPlane(w, b, 6000, 800, 1.0, 0.025);
+    ASSERT_EQ(w.bodies.size(), 2u);
     double z_max = 0.0;
     for (int i = 0; i < 300; ++i) {
       w.Step();
