@@ -124,6 +124,7 @@ struct StepTrace {
   float free_motion = 0, traverse = 0, interpenetration = 0, refit = 0, fill_w_rigid = 0, fill_w_deform = 0,
         solve = 0, constrained_motion = 0, total = 0;  // ms
   int contacts = 0, iterations = 0, cache_hits = 0, cache_builds = 0, cache_refills = 0, slice_tests = 0;
+  int projections = 0, fits = 0, feet_kept = 0, remembered = 0, far = 0;  // CollisionStats
   StepWork work;
   bool frame = false, budget_stopped = false, solve_skipped = false, carried = false;
   double residual = 0.0;
@@ -288,6 +289,11 @@ bool RunOnce(const std::string& scene, const Session& session, double seconds, b
       t.cache_builds = p.collision.cache_builds;
       t.cache_refills = p.collision.cache_refills;
       t.slice_tests = p.collision.slice_tests;
+      t.projections = p.collision.projections;
+      t.fits = p.collision.fits;
+      t.feet_kept = p.collision.feet_kept;
+      t.remembered = p.collision.remembered;
+      t.far = p.collision.far;
       t.work = p.work;
       t.frame = frame;
       t.budget_stopped = p.budget_stopped;
@@ -380,7 +386,8 @@ bool WriteTrace(FILE* f, const std::string& path, const RunResult& with, const R
                   "fill_w_rigid_ms,fill_w_deform_ms,solve_ms,constrained_motion_ms,step_ms,contacts,sweeps,"
                   "cache_hits,cache_builds,frame,budget_stop,node_tests,w_blocks_built,w_deform_sides,"
                   "w_deform_reused,w_deform_direct,weights_reused,deformed_points,bodies_asleep,contacts_reused,"
-                  "cache_refills,slice_tests,solve_skipped,residual,carried_contacts\n");
+                  "cache_refills,slice_tests,solve_skipped,residual,carried_contacts,projections,fits,feet_kept,remembered,"
+                  "far_stops\n");
   for (const RunResult* r : {&with, &without}) {
     for (const StepTrace& t : r->trace) {
       std::fprintf(f, "%d,%lld,%.6f,%.6f,%.6f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%d,%d,%d,%d,%d,%d,",
@@ -389,10 +396,11 @@ bool WriteTrace(FILE* f, const std::string& path, const RunResult& with, const R
                    t.constrained_motion, t.total, t.contacts, t.iterations, t.cache_hits, t.cache_builds,
                    t.frame ? 1 : 0, t.budget_stopped ? 1 : 0);
       const StepWork& k = t.work;
-      std::fprintf(f, "%d,%d,%d,%d,%d,%d,%d,%d,%d,%d,%d,%d,%.3g,%d\n", k.node_tests, k.w_blocks_built, k.w_deform_sides,
+      std::fprintf(f, "%d,%d,%d,%d,%d,%d,%d,%d,%d,%d,%d,%d,%.3g,%d,", k.node_tests, k.w_blocks_built, k.w_deform_sides,
                    k.w_deform_reused, k.w_deform_direct, k.weights_reused, k.deformed_points, k.bodies_asleep,
                    k.contacts_reused, t.cache_refills, t.slice_tests, t.solve_skipped ? 1 : 0, t.residual,
                    t.carried ? 1 : 0);
+      std::fprintf(f, "%d,%d,%d,%d,%d\n", t.projections, t.fits, t.feet_kept, t.remembered, t.far);
     }
   }
   const bool ok = std::ferror(f) == 0;
