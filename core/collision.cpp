@@ -907,19 +907,6 @@ Vec3 PlaneTouch(const SphereTree& tq, int lq, const Vec3& n) {
   return phi > 1e-9 ? Vec3(g.shift * (std::sin(phi) / phi)) : g.shift;
 }
 
-// Where leaf lq of tq touches a plane of normal n (q's frame), from its control
-// point: a curved leaf where its patch touches (PlaneTouch); a flat or sharp leaf at
-// its own sample nearest its centre (SphereTree::leaf_sample), on the body's true
-// surface. The MLS surface through a face's control points near a sharp edge stands
-// out of the face (the quadric fitted across the edge overshoots it) and rounds the
-// edge: resting on those control points, a box stood 0.05 to 0.15 mm high, tilted,
-// and tipped over on a slope of 15 degrees where it should stand up to 18.4.
-Vec3 PlaneTouchAt(const SphereTree& tq, int lq, const Vec3& n) {
-  const MlsPatch* pq = tq.leaf_patch(lq);
-  const bool curved = pq && std::abs(pq->c[3]) + std::abs(pq->c[4]) + std::abs(pq->c[5]) > 0.5 * kFlatCurvature * pq->h;
-  return curved ? PlaneTouch(tq, lq, n) : Vec3(tq.leaf_sample(lq) - tq.control_point(lq));
-}
-
 // control points of a tree against the analytic plane z = 0 of the plane body. With
 // the common normal, a curved surface's normal force acts where it touches the plane
 // (PlaneTouch; Contact::touch, or the anchors moved there between rigid surfaces):
@@ -954,10 +941,7 @@ void CollidePlane(int id_q, const SphereTree& tq, const Pose& pose_q, bool defor
   const auto t1 = Clock::now();
   for (int lq : s->touched_a) {
     const Vec3& c = tq.control_point(lq);
-    // where the leaf touches the plane (q's frame, from c): a curved leaf's lowest
-    // point; a flat or sharp one's own sample (PlaneTouchAt)
-    const Vec3 shift_q = params.common_normal ? PlaneTouchAt(tq, lq, n_q) : Vec3::Zero();
-    const double gap = n_q.dot(c + shift_q) + offset;
+    const double gap = n_q.dot(c) + offset;
     ++stats->projections;
     if (!(gap < params.contact_threshold)) continue;
     Contact ct;
@@ -968,6 +952,7 @@ void CollidePlane(int id_q, const SphereTree& tq, const Pose& pose_q, bool defor
     ct.anchor[0] = c;
     ct.anchor[1] = pose_p.ApplyInverse(pose_q.Apply(c) - gap * n_world);
     if (params.common_normal) {
+      const Vec3 shift_q = PlaneTouch(tq, lq, n_q);
       const Vec3 shift_p = pose_p.RotateInverse(pose_q.Rotate(shift_q));
       if (deforms) {
         ct.touch[0] = shift_q;

@@ -82,20 +82,12 @@ SphereTree::EBuildError SphereTree::Build(const PointCloud& cloud, const MlsPara
   std::vector<int> nbrs;
   const double support = mls.support * mls.bandwidth;
   point_leaf_.assign(n, -1);
-  leaf_sample_.assign(static_cast<size_t>(params.leaf_count), Vec3::Zero());
   for (size_t ni = 0; ni < nodes_.size(); ++ni) {
     TreeNode& node = nodes_[ni];
     if (!node.IsLeaf()) continue;
     Vec3 centroid = Vec3::Zero();
     for (int k = node.first; k < node.first + node.count; ++k) centroid += cloud.positions[point_order_[k]];
     centroid /= node.count;
-    // the leaf point nearest to the centroid (the first of equals, in the leaf's order)
-    int nearest = point_order_[node.first];
-    for (int k = node.first; k < node.first + node.count; ++k) {
-      const int i = point_order_[k];
-      if ((cloud.positions[i] - centroid).squaredNorm() < (cloud.positions[nearest] - centroid).squaredNorm()) nearest = i;
-    }
-    leaf_sample_[node.leaf] = cloud.positions[nearest];
     nbrs.clear();
     grid.Query(centroid, support, &nbrs);
     std::sort(nbrs.begin(), nbrs.end());
@@ -106,7 +98,13 @@ SphereTree::EBuildError SphereTree::Build(const PointCloud& cloud, const MlsPara
         proj.point.allFinite() && (proj.point - centroid).norm() < 4.0 * spacing + support) {
       center = proj.point;
     } else {
-      center = cloud.positions[nearest];  // too few neighbours for a fit
+      // too few neighbours for a fit: the leaf point nearest to the centroid
+      int best = point_order_[node.first];
+      for (int k = node.first; k < node.first + node.count; ++k) {
+        const int i = point_order_[k];
+        if ((cloud.positions[i] - centroid).squaredNorm() < (cloud.positions[best] - centroid).squaredNorm()) best = i;
+      }
+      center = cloud.positions[best];
     }
     node.center = center;
     double r = 0.0;

@@ -87,10 +87,6 @@ class SphereTree {
   /// Rest position of control point `leaf` (the leaf centre, on the MLS surface).
   const Vec3& control_point(int leaf) const { return nodes_[leaf_node_[leaf]].center; }
   const std::vector<Vec3>& control_points() const { return control_points_; }
-  /// The leaf's own sample nearest to the centroid of its samples (rest frame): a
-  /// point of the body's true surface, where the MLS surface through the control
-  /// point may stand off it (a sharp edge's rounding and the bulge beside it).
-  const Vec3& leaf_sample(int leaf) const { return leaf_sample_[leaf]; }
   /// Permutation of point indices; each node covers a contiguous range of it.
   const std::vector<int>& point_order() const { return point_order_; }
   /// Leaf owning each point.
@@ -158,7 +154,6 @@ class SphereTree {
   std::vector<int> span_end_;
   std::vector<int> leaf_node_;
   std::vector<Vec3> control_points_;
-  std::vector<Vec3> leaf_sample_;
   std::vector<int> point_order_;
   std::vector<int> point_leaf_;
   std::vector<int> nbr_start_, nbr_items_;

