@@ -78,6 +78,7 @@ int AddBody(World& w, const BodySpec& spec, EGeometryError* error) {
   b.angular_damping = spec.angular_damping;
   b.pose = b.pose_prev = spec.pose;
   b.velocity = spec.velocity;
+  b.angular_velocity = spec.angular_velocity;
   b.drive = spec.drive;
   b.emits_contacts = spec.emits_contacts;
   if (!spec.is_plane && spec.deformation.model != EDeformation::Rigid) {

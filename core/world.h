@@ -651,7 +651,8 @@ struct BodySpec {
   const TriangleMesh* mesh = nullptr;  ///< when set, sampled instead of `shape`
   GeometryOptions geometry;
   Pose pose;
-  Vec3 velocity = Vec3::Zero();
+  Vec3 velocity = Vec3::Zero();          ///< initial, world frame (m/s)
+  Vec3 angular_velocity = Vec3::Zero();  ///< initial, world frame (rad/s)
   EMotion motion = EMotion::Free;
   EDynamics dynamics = EDynamics::Inertial;
   double mass = 0.0;

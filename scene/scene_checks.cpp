@@ -23,13 +23,22 @@ double SmallestLeaf(const Body& b) {
   return r;
 }
 
+// the initial speed of body b's fastest point (m/s): its velocity and its spin times
+// how far its surface reaches from its origin (its root sphere)
+double StartSpeed(const Body& b) {
+  const double spin = b.angular_velocity.norm();
+  if (!(spin > 0.0) || b.geometry.is_plane) return b.velocity.norm();
+  const TreeNode& root = b.geometry.tree.node(b.geometry.tree.root());
+  return b.velocity.norm() + spin * (root.center.norm() + root.rest_radius);
+}
+
 // how far body b moves in one step of dt from its initial velocity, falling under g:
 // (M/dt^2 + B/dt) d = m g for the fall (free motion, inertial or quasi-static)
 double StepTravel(const Body& b, double dt, double g) {
   const bool inertial = b.dynamics == EDynamics::Inertial;
   const double a = (inertial ? b.mass / (dt * dt) : 0.0) + b.linear_damping / dt;
   const double fall = a > 0.0 ? b.mass * g / a : 0.0;
-  return fall + (inertial ? b.velocity.norm() * dt : 0.0);
+  return fall + (inertial ? StartSpeed(b) * dt : 0.0);
 }
 
 // x rounded down to two significant digits (a suggested limit that holds as printed)
@@ -62,7 +71,7 @@ TravelLimit AllowedTravel(const World& w, size_t i) {
 // g dt^2 + v dt = travel for an inertial body (the damping only slows the fall),
 // m g dt / B = travel for a quasi-static one
 double LongestStep(const Body& b, double g, double travel) {
-  const double v = b.velocity.norm();
+  const double v = StartSpeed(b);
   if (b.dynamics == EDynamics::QuasiStatic)
     return b.mass * g > 0.0 && b.linear_damping > 0.0 ? travel * b.linear_damping / (b.mass * g) : kNever;
   if (g > 0.0) return (std::sqrt(v * v + 4.0 * g * travel) - v) / (2.0 * g);
@@ -75,17 +84,17 @@ std::string TimeStepMessage(const World& w, int i, const TravelLimit& limit, dou
   char msg[700];
   if (limit.thinnest < 0)
     std::snprintf(msg, sizeof msg,
-                  "time step %g s is too long: body '%s' moves %.3g mm in one step (falling from %.3g m/s), more than "
+                  "time step %g s is too long: body '%s' moves %.3g mm in one step (its fastest point starting at %.3g m/s), more than "
                   "half its smallest sphere-tree leaf (radius %.3g mm); contacts would be found too deep to resolve "
                   "and it can tunnel through other bodies. Use timestep_s <= %.2g s, or fewer control points (larger "
                   "leaves)",
-                  dt, b.name.c_str(), 1e3 * travel, b.velocity.norm(), 2e3 * limit.travel, RoundDown(longest));
+                  dt, b.name.c_str(), 1e3 * travel, StartSpeed(b), 2e3 * limit.travel, RoundDown(longest));
   else
     std::snprintf(msg, sizeof msg,
-                  "time step %g s is too long: body '%s' moves %.3g mm in one step (falling from %.3g m/s), more than "
+                  "time step %g s is too long: body '%s' moves %.3g mm in one step (its fastest point starting at %.3g m/s), more than "
                   "body '%s' reaches from its centre (%.3g mm): it can pass through it in one step. Use timestep_s "
                   "<= %.2g s",
-                  dt, b.name.c_str(), 1e3 * travel, b.velocity.norm(), w.bodies[limit.thinnest].name.c_str(),
+                  dt, b.name.c_str(), 1e3 * travel, StartSpeed(b), w.bodies[limit.thinnest].name.c_str(),
                   1e3 * limit.travel, RoundDown(longest));
   return msg;
 }

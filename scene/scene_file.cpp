@@ -169,6 +169,7 @@ void ReadBody(const YAML::Node& node, const std::string& file, const std::string
   m.Vector3("rotation_deg", &rot, -1e4, 1e4, false);
   s.pose = Pose{RotationDeg(rot), pos};
   m.Vector3("velocity_m_s", &s.velocity, -kBig, kBig, false);
+  m.Vector3("angular_velocity_rad_s", &s.angular_velocity, -kBig, kBig, false);
   std::string motion = "free", dynamics = "inertial";
   m.Choice("motion", &motion, {"free", "fixed", "kinematic"}, false);
   m.Choice("dynamics", &dynamics, {"inertial", "quasi_static"}, false);
