@@ -386,8 +386,8 @@ bool WriteTrace(FILE* f, const std::string& path, const RunResult& with, const R
                   "fill_w_rigid_ms,fill_w_deform_ms,solve_ms,constrained_motion_ms,step_ms,contacts,sweeps,"
                   "cache_hits,cache_builds,frame,budget_stop,node_tests,w_blocks_built,w_deform_sides,"
                   "w_deform_reused,w_deform_direct,weights_reused,deformed_points,bodies_asleep,contacts_reused,"
-                  "cache_refills,slice_tests,solve_skipped,residual,carried_contacts,projections,fits,feet_kept,remembered,"
-                  "far_stops\n");
+                  "cache_refills,slice_tests,solve_skipped,residual,carried_contacts,projections,fits,feet_kept,"
+                  "remembered,far_stops\n");
   for (const RunResult* r : {&with, &without}) {
     for (const StepTrace& t : r->trace) {
       std::fprintf(f, "%d,%lld,%.6f,%.6f,%.6f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%d,%d,%d,%d,%d,%d,",

@@ -84,16 +84,16 @@ std::string TimeStepMessage(const World& w, int i, const TravelLimit& limit, dou
   char msg[700];
   if (limit.thinnest < 0)
     std::snprintf(msg, sizeof msg,
-                  "time step %g s is too long: body '%s' moves %.3g mm in one step (its fastest point starting at %.3g m/s), more than "
-                  "half its smallest sphere-tree leaf (radius %.3g mm); contacts would be found too deep to resolve "
-                  "and it can tunnel through other bodies. Use timestep_s <= %.2g s, or fewer control points (larger "
-                  "leaves)",
+                  "time step %g s is too long: body '%s' moves %.3g mm in one step (its fastest point starting at "
+                  "%.3g m/s), more than half its smallest sphere-tree leaf (radius %.3g mm); contacts would be found "
+                  "too deep to resolve and it can tunnel through other bodies. Use timestep_s <= %.2g s, or fewer "
+                  "control points (larger leaves)",
                   dt, b.name.c_str(), 1e3 * travel, StartSpeed(b), 2e3 * limit.travel, RoundDown(longest));
   else
     std::snprintf(msg, sizeof msg,
-                  "time step %g s is too long: body '%s' moves %.3g mm in one step (its fastest point starting at %.3g m/s), more than "
-                  "body '%s' reaches from its centre (%.3g mm): it can pass through it in one step. Use timestep_s "
-                  "<= %.2g s",
+                  "time step %g s is too long: body '%s' moves %.3g mm in one step (its fastest point starting at "
+                  "%.3g m/s), more than body '%s' reaches from its centre (%.3g mm): it can pass through it in one "
+                  "step. Use timestep_s <= %.2g s",
                   dt, b.name.c_str(), 1e3 * travel, StartSpeed(b), w.bodies[limit.thinnest].name.c_str(),
                   1e3 * limit.travel, RoundDown(longest));
   return msg;
