@@ -44,13 +44,23 @@ void AddBenchCommand(CLI::App& app, int* exit_code) {
   step->add_flag("--pinch", opt->pinch,
                  "a tracked hand's synthetic input is the precision pinch (config/tracked_whole_hand.yaml) instead of "
                  "the power grasp");
+  step->add_option("--from", opt->from_s,
+                   "time the steps from this simulated second instead of the hold's start (the closing of the "
+                   "synthetic power grasp: 1.0)")
+      ->type_name("SECONDS")
+      ->check(InRange(0.0, 3600.0, "a simulated time in seconds"));
+  step->add_option("--seconds", opt->seconds, "the length of the timed window (default: the hold's, 1 s; --quick 0.2 s)")
+      ->type_name("SECONDS")
+      ->check(InRange(0.001, 3600.0, "a number of seconds"));
   AddThreadsOption(step, &opt->threads);
   SetHelpFooter(step,
                 {{"graspsim bench step --quick", "step and stage medians on config/paper_box_grasp.yaml"},
                  {"graspsim bench step --scene config/whole_hand_power_grasp.yaml",
                   "the whole tracked hand holding the box (t = 2.1..3.1 s of the synthetic power grasp)"},
                  {"graspsim bench step --scene config/tracked_whole_hand.yaml --pinch",
-                  "the same hand pinching the box between thumb and index"}},
+                  "the same hand pinching the box between thumb and index"},
+                 {"graspsim bench step --scene config/whole_hand_paper_density.yaml --from 1.0 --seconds 0.3",
+                  "the fingers closing on the box instead of the hold"}},
                 {{kExitOk, "the figures are printed (a median over 1 ms is reported, not an error)"},
                  usage, {kExitBadInput, "config/paper_box_grasp.yaml was refused"}, interrupted});
   SetHelpFooter(add("mls", "MLS projection accuracy and cost on a sphere and an ellipsoid at the paper's density",

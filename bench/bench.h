@@ -16,7 +16,8 @@ struct BenchOptions {
   std::string plot_dir;  ///< bench tradeoff: write CSV and PNG plots here when set
   std::string knob;      ///< bench tradeoff: sweep only this knob when set
   std::vector<std::string> only;  ///< bench solver: only the problems whose name contains one of these
-  double seconds = 0.0;  ///< bench realtime: session length (0: 60 s, --quick 2 s)
+  double seconds = 0.0;  ///< bench realtime: session length (0: 60 s, --quick 2 s); bench step: the window's (0: the hold's)
+  double from_s = -1.0;  ///< bench step: the timed window's start in simulated seconds (negative: the hold's start)
   std::string scene;     ///< bench realtime, step: the scene (empty: their default)
   bool pinch = false;    ///< bench step, realtime: a tracked hand's synthetic input is the precision pinch
   int rt_priority = 50;  ///< bench realtime: SCHED_FIFO priority of the loop (0: normal scheduling)

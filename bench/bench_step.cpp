@@ -24,11 +24,13 @@
 namespace gs::app {
 namespace {
 
-double MedianOf(std::vector<double> v) {
+// the value at fraction q of the sorted values (0.5: the median)
+double QuantileOf(std::vector<double> v, double q) {
   if (v.empty()) return 0.0;
   std::sort(v.begin(), v.end());
-  return v[v.size() / 2];
+  return v[std::min(v.size() - 1, static_cast<size_t>(q * static_cast<double>(v.size())))];
 }
+double MedianOf(const std::vector<double>& v) { return QuantileOf(v, 0.5); }
 
 // steps a scripted scene by its script, a tracked one by the synthetic hand's
 // datagrams at 100 Hz in simulated time
@@ -87,14 +89,15 @@ int RunBenchStep(const BenchOptions& opt) {
   }
   World& w = driver->world();
   // the paper grasp's lift ends at 0.9 s; the grasp is deepest once it has settled in the hold
-  const double start = driver->HoldStart(), window = driver->HoldLength(opt.quick);
+  const double start = opt.from_s >= 0.0 ? opt.from_s : driver->HoldStart();
+  const double window = opt.seconds > 0.0 ? opt.seconds : driver->HoldLength(opt.quick);
   while (w.time < start - 0.5 * w.params.dt) driver->Step();
   std::vector<double> total, collision, space, space_rigid, space_deform, solve, motion, free_motion, iters;
-  std::vector<double> contacts, projections, fits, node_pairs, leaf_pairs, traverse, interp;
+  std::vector<double> contacts, projections, fits, node_pairs, leaf_pairs, traverse, interp, refit;
   std::vector<double> sides, sides_reused, weights_reused, cache_hits, cache_builds, on_lanes;
   double residual_max = 0.0;
   int unconverged = 0, rejected = 0;
-  const int steps = static_cast<int>(std::llround(window / w.params.dt));
+  const int steps = std::max(1, static_cast<int>(std::llround(window / w.params.dt)));
   for (int i = 0; i < steps && !StopRequested(); ++i) {
     driver->Step();
     const StepProfile& p = w.profile;
@@ -114,6 +117,7 @@ int RunBenchStep(const BenchOptions& opt) {
     leaf_pairs.push_back(p.collision.leaf_pairs);
     traverse.push_back(1e3 * p.traverse);
     interp.push_back(1e3 * p.interpenetration);
+    refit.push_back(1e3 * p.refit);
     sides.push_back(p.work.w_deform_sides);
     sides_reused.push_back(p.work.w_deform_reused);
     weights_reused.push_back(p.work.weights_reused);
@@ -135,31 +139,32 @@ int RunBenchStep(const BenchOptions& opt) {
                   static_cast<int>(contacts[i]), static_cast<int>(iters[i]), total[i]);
     std::printf(
         "{\"bench\":\"step\",\"scene\":\"%s\",\"threads\":%d,\"pairs_on_lanes_median\":%d,\"steps\":%d,\"contacts\":%d,\"free_motion_ms_median\":%.4f,"
-        "\"collision_ms_median\":%.4f,\"traverse_ms_median\":%.4f,\"interpenetration_ms_median\":%.4f,"
+        "\"collision_ms_median\":%.4f,\"refit_ms_median\":%.4f,\"traverse_ms_median\":%.4f,\"interpenetration_ms_median\":%.4f,"
         "\"sphere_tests_median\":%d,\"leaf_pairs_median\":%d,\"projections_median\":%d,\"mls_fits_median\":%d,"
         "\"contact_space_ms_median\":%.4f,\"solve_ms_median\":%.4f,"
         "\"contact_space_rigid_ms_median\":%.4f,\"contact_space_deform_ms_median\":%.4f,"
         "\"pair_cache_hits_median\":%d,\"pair_cache_builds_median\":%d,\"w_deform_sides_median\":%d,\"w_deform_reused_median\":%d,\"weights_reused_median\":%d,"
         "\"constrained_motion_ms_median\":%.4f,\"gs_iterations_median\":%d,\"gs_iterations_max\":%d,"
         "\"residual_max\":%.3g,\"unconverged_steps\":%d,\"rejected_steps\":%d,\"target_ms\":1.0,"
-        "\"step_ms_median\":%.4f}\n",
+        "\"from_s\":%.3f,\"seconds\":%.3f,\"step_ms_p90\":%.4f,\"step_ms_max\":%.4f,\"step_ms_median\":%.4f}\n",
         driver->name().c_str(), threads, static_cast<int>(MedianOf(on_lanes)), steps, static_cast<int>(MedianOf(contacts)), MedianOf(free_motion), MedianOf(collision),
-        MedianOf(traverse), MedianOf(interp), static_cast<int>(MedianOf(node_pairs)),
+        MedianOf(refit), MedianOf(traverse), MedianOf(interp), static_cast<int>(MedianOf(node_pairs)),
         static_cast<int>(MedianOf(leaf_pairs)), static_cast<int>(MedianOf(projections)),
         static_cast<int>(MedianOf(fits)), MedianOf(space), MedianOf(solve), MedianOf(space_rigid),
         MedianOf(space_deform), static_cast<int>(MedianOf(cache_hits)), static_cast<int>(MedianOf(cache_builds)),
         static_cast<int>(MedianOf(sides)), static_cast<int>(MedianOf(sides_reused)),
         static_cast<int>(MedianOf(weights_reused)), MedianOf(motion), static_cast<int>(MedianOf(iters)),
         static_cast<int>(*std::max_element(iters.begin(), iters.end())), residual_max, unconverged, rejected,
-        step_ms);
+        start, window, QuantileOf(total, 0.9), QuantileOf(total, 1.0), step_ms);
   } else {
-    std::printf("graspsim bench step: %s, hold phase t = %.1f..%.1f s, %d steps of %.3g ms\n", driver->name().c_str(),
-                start, start + window, steps, 1e3 * w.params.dt);
+    std::printf("graspsim bench step: %s, %s t = %.3g..%.3g s, %d steps of %.3g ms\n", driver->name().c_str(),
+                opt.from_s >= 0.0 ? "window" : "hold phase", start, start + window, steps, 1e3 * w.params.dt);
     std::printf("  threads %d (body pairs on the workers' lanes: %d, median)\n", threads,
                 static_cast<int>(MedianOf(on_lanes)));
     std::printf("  contacts (median)              %8d\n", static_cast<int>(MedianOf(contacts)));
     std::printf("  free motion (ms, median)       %8.4f\n", MedianOf(free_motion));
     std::printf("  collision detection (ms)       %8.4f\n", MedianOf(collision));
+    std::printf("    refit of the deformed trees  %8.4f\n", MedianOf(refit));
     std::printf("    traverse / interpenetration  %8.4f / %.4f%s\n", MedianOf(traverse), MedianOf(interp),
                 MedianOf(on_lanes) > 0 ? "   (summed over the threads)" : "");
     std::printf("    sphere tests %d, leaf pairs %d, projections %d, MLS fits %d (medians)\n",
@@ -179,6 +184,7 @@ int RunBenchStep(const BenchOptions& opt) {
     std::printf("  residual max %.3g, %d steps at the sweep cap, %d rejected\n", residual_max, unconverged,
                 rejected);
     std::printf("  whole step (ms, median)        %8.4f   (target 1 ms; the paper: 53 ms)\n", step_ms);
+    std::printf("    p90 / max                    %8.4f / %.4f\n", QuantileOf(total, 0.9), QuantileOf(total, 1.0));
   }
   return 0;
 }

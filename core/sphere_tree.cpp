@@ -199,12 +199,13 @@ SphereTree::EBuildError SphereTree::Build(const PointCloud& cloud, const MlsPara
   }
 
   hot_.resize(nodes_.size());
+  leaf_top_.assign(leaf_node_.size(), 0.0);
   for (size_t i = 0; i < nodes_.size(); ++i) {
     const TreeNode& n = nodes_[i];
     hot_[i].center = n.center;
-    hot_[i].radius = n.radius;
     hot_[i].child[0] = n.child[0];
     hot_[i].child[1] = n.IsLeaf() ? n.leaf : n.child[1];
+    SyncRadius(static_cast<int>(i));
   }
   // depth-first layout: a subtree is the node range [i, span_end_[i])
   span_end_.assign(nodes_.size(), 0);
@@ -352,14 +353,22 @@ void SphereTree::Refit(const Vec3* displacement, const double* spread, const uin
 
   // ancestors down to the stop level, children before parents: growth = max over
   // children (nodes are in depth-first order, so a child's index exceeds its parent's)
-  std::sort(dirty_.begin(), dirty_.end(), std::greater<int>());
-  for (int ni : dirty_) {
+  // (in decreasing index order: sorted when few, else read off the marks, which
+  // visits the same nodes in the same order without sorting thousands)
+  auto inflate = [&](int ni) {
     dirty_mark_[ni] = 0;
     TreeNode& node = nodes_[ni];
     growth_[ni] = std::max(growth_[node.child[0]], growth_[node.child[1]]);
     node.radius = node.rest_radius + growth_[ni];
     SyncRadius(ni);
     ++local.nodes_visited;
+  };
+  if (dirty_.size() * 32 < nodes_.size()) {
+    std::sort(dirty_.begin(), dirty_.end(), std::greater<int>());
+    for (int ni : dirty_) inflate(ni);
+  } else {
+    for (int ni = static_cast<int>(nodes_.size()) - 1; ni >= 0; --ni)
+      if (dirty_mark_[ni]) inflate(ni);
   }
 
   // above the stop level: inflate by the largest growth on the frontier

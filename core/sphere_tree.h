@@ -85,7 +85,7 @@ class SphereTree {
   int leaf_node(int leaf) const { return leaf_node_[leaf]; }
   int depth() const { return max_depth_; }
   /// Rest position of control point `leaf` (the leaf centre, on the MLS surface).
-  const Vec3& control_point(int leaf) const { return nodes_[leaf_node_[leaf]].center; }
+  const Vec3& control_point(int leaf) const { return control_points_[leaf]; }
   const std::vector<Vec3>& control_points() const { return control_points_; }
   /// Permutation of point indices; each node covers a contiguous range of it.
   const std::vector<int>& point_order() const { return point_order_; }
@@ -103,10 +103,7 @@ class SphereTree {
   double leaf_flatness(int leaf) const { return leaf_min_cos_[leaf]; }
   /// Height of the leaf's surface above its centre along leaf_normal (m, >= 0),
   /// including the refit growth: no surface point of the leaf lies higher.
-  double leaf_height(int leaf) const {
-    const TreeNode& n = nodes_[leaf_node_[leaf]];
-    return leaf_height_[leaf] + (n.radius - n.rest_radius);
-  }
+  double leaf_height(int leaf) const { return leaf_top_[leaf]; }
   /// The MLS surface fitted at a leaf's centre (rest frame), or null when that
   /// fit failed: a first guess for projections onto the surface near the leaf.
   const MlsPatch* leaf_patch(int leaf) const { return patch_ok_[leaf] ? &patches_[leaf] : nullptr; }
@@ -148,7 +145,13 @@ class SphereTree {
   void SplitAtGap(const PointCloud& cloud, int first, int count, int leaves, const Vec3& axis, int* split,
                   int* left_leaves) const;
 
-  void SyncRadius(int i) { hot_[i].radius = nodes_[i].radius; }
+  // the node's radius into the copies read by traversal and gathering: the hot
+  // node's, and for a leaf its height with the growth (leaf_height)
+  void SyncRadius(int i) {
+    const TreeNode& n = nodes_[i];
+    hot_[i].radius = n.radius;
+    if (n.leaf >= 0) leaf_top_[n.leaf] = leaf_height_[n.leaf] + (n.radius - n.rest_radius);
+  }
   std::vector<TreeNode> nodes_;
   std::vector<TraversalNode> hot_;
   std::vector<int> span_end_;
@@ -159,6 +162,7 @@ class SphereTree {
   std::vector<int> nbr_start_, nbr_items_;
   std::vector<Vec3> leaf_normal_;
   std::vector<double> leaf_height_;
+  std::vector<double> leaf_top_;    // leaf_height_ plus the leaf's growth (kept by SyncRadius)
   std::vector<double> leaf_min_cos_;
   std::vector<MlsPatch> patches_;
   std::vector<uint8_t> patch_ok_;
