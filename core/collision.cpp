@@ -1079,11 +1079,11 @@ bool RootsOverlap(const CollisionShape& a, const Pose& pose_a, const CollisionSh
     const Pose& pp = a.is_plane ? pose_a : pose_b;
     const TreeNode& root = q.tree->node(q.tree->root());
     const double dist = pp.R.col(2).dot(pq.Apply(root.center) - pp.t);
-    return dist <= root.radius + threshold;
+    return dist <= q.tree->radius(q.tree->root()) + threshold;
   }
   const TreeNode& ra = a.tree->node(a.tree->root());
   const TreeNode& rb = b.tree->node(b.tree->root());
-  const double reach = ra.radius + rb.radius + threshold;
+  const double reach = a.tree->radius(a.tree->root()) + b.tree->radius(b.tree->root()) + threshold;
   return (pose_a.Apply(ra.center) - pose_b.Apply(rb.center)).squaredNorm() <= reach * reach;
 }
 

@@ -39,7 +39,8 @@ bool AwakeMover(const Body& b) { return b.articulation >= 0 ? !b.asleep : !Stati
 double Drift(const Body& b, const Pose& from, const Pose& to) {
   if (b.geometry.is_plane) return (to.t - from.t).norm() + (to.R - from.R).norm() * 1e3;
   const TreeNode& root = b.geometry.tree.node(b.geometry.tree.root());
-  return (to.Apply(root.center) - from.Apply(root.center)).norm() + (to.R - from.R).norm() * root.radius;
+  return (to.Apply(root.center) - from.Apply(root.center)).norm() +
+         (to.R - from.R).norm() * b.geometry.tree.radius(b.geometry.tree.root());
 }
 
 bool Reaches(const World& w, const Body& a, const Body& b) {

@@ -112,7 +112,7 @@ SphereTree::EBuildError SphereTree::Build(const PointCloud& cloud, const MlsPara
       r = std::max(r, (cloud.positions[point_order_[k]] - center).norm());
       point_leaf_[point_order_[k]] = node.leaf;
     }
-    node.rest_radius = node.radius = r + cover_margin_;
+    node.rest_radius = r + cover_margin_;
   }
   // leaf slabs: mean normal and the highest point above the centre along it
   leaf_normal_.assign(leaf_node_.size(), Vec3::UnitZ());
@@ -200,12 +200,19 @@ SphereTree::EBuildError SphereTree::Build(const PointCloud& cloud, const MlsPara
 
   hot_.resize(nodes_.size());
   leaf_top_.assign(leaf_node_.size(), 0.0);
+  growth_.assign(nodes_.size(), 0.0);
+  rest_radius_.resize(nodes_.size());
+  parent_.resize(nodes_.size());
+  depth_.resize(nodes_.size());
   for (size_t i = 0; i < nodes_.size(); ++i) {
     const TreeNode& n = nodes_[i];
     hot_[i].center = n.center;
     hot_[i].child[0] = n.child[0];
     hot_[i].child[1] = n.IsLeaf() ? n.leaf : n.child[1];
-    SyncRadius(static_cast<int>(i));
+    rest_radius_[i] = n.rest_radius;
+    parent_[i] = n.parent;
+    depth_[i] = n.depth;
+    SetGrowth(static_cast<int>(i), 0.0);
   }
   // depth-first layout: a subtree is the node range [i, span_end_[i])
   span_end_.assign(nodes_.size(), 0);
@@ -213,7 +220,6 @@ SphereTree::EBuildError SphereTree::Build(const PointCloud& cloud, const MlsPara
     const TreeNode& n = nodes_[k];
     span_end_[k] = n.IsLeaf() ? static_cast<int>(k) + 1 : span_end_[n.child[1]];
   }
-  growth_.assign(nodes_.size(), 0.0);
   growth_drift_ = 0.0;
   center_extent_ = 0.0;
   for (const TreeNode& n : nodes_) center_extent_ = std::max(center_extent_, n.center.norm());
@@ -284,7 +290,7 @@ int SphereTree::BuildNode(const PointCloud& cloud, int first, int count, int lea
     cov += d * d.transpose();
   }
   nodes_[index].center = c;
-  nodes_[index].rest_radius = nodes_[index].radius = r + cover_margin_;
+  nodes_[index].rest_radius = r + cover_margin_;
 
   if (leaves <= 1) {
     nodes_[index].leaf = static_cast<int>(leaf_node_.size());
@@ -337,15 +343,15 @@ void SphereTree::Refit(const Vec3* displacement, const double* spread, const uin
     if (!changed[l]) continue;
     ++local.leaves_changed;
     const int ni = leaf_node_[l];
-    const double g = displacement[l].norm() + std::max(0.0, spread[l]);
-    if (std::isfinite(g)) {
-      rise = std::max(rise, g - growth_[ni]);
-      growth_[ni] = g;
+    double g = growth_[ni];
+    const double bound = displacement[l].norm() + std::max(0.0, spread[l]);
+    if (std::isfinite(bound)) {
+      rise = std::max(rise, bound - g);
+      g = bound;
     }
-    nodes_[ni].radius = nodes_[ni].rest_radius + growth_[ni];
-    SyncRadius(ni);
+    SetGrowth(ni, g);
     ++local.nodes_visited;
-    for (int p = nodes_[ni].parent; p >= 0 && nodes_[p].depth >= stop_level && !dirty_mark_[p]; p = nodes_[p].parent) {
+    for (int p = parent_[ni]; p >= 0 && depth_[p] >= stop_level && !dirty_mark_[p]; p = parent_[p]) {
       dirty_mark_[p] = 1;
       dirty_.push_back(p);
     }
@@ -357,10 +363,8 @@ void SphereTree::Refit(const Vec3* displacement, const double* spread, const uin
   // visits the same nodes in the same order without sorting thousands)
   auto inflate = [&](int ni) {
     dirty_mark_[ni] = 0;
-    TreeNode& node = nodes_[ni];
-    growth_[ni] = std::max(growth_[node.child[0]], growth_[node.child[1]]);
-    node.radius = node.rest_radius + growth_[ni];
-    SyncRadius(ni);
+    const TraversalNode& node = hot_[ni];
+    SetGrowth(ni, std::max(growth_[node.child[0]], growth_[node.child[1]]));
     ++local.nodes_visited;
   };
   if (dirty_.size() * 32 < nodes_.size()) {
@@ -378,9 +382,7 @@ void SphereTree::Refit(const Vec3* displacement, const double* spread, const uin
     if (top != top_growth_) {
       top_growth_ = top;
       for (int i : shallow_nodes_) {
-        growth_[i] = top;
-        nodes_[i].radius = nodes_[i].rest_radius + top;
-        SyncRadius(i);
+        SetGrowth(i, top);
         ++local.nodes_visited;
       }
     }
@@ -390,11 +392,7 @@ void SphereTree::Refit(const Vec3* displacement, const double* spread, const uin
 }
 
 void SphereTree::ResetRefit() {
-  for (size_t i = 0; i < nodes_.size(); ++i) {
-    growth_[i] = 0.0;
-    nodes_[i].radius = nodes_[i].rest_radius;
-    SyncRadius(static_cast<int>(i));
-  }
+  for (size_t i = 0; i < nodes_.size(); ++i) SetGrowth(static_cast<int>(i), 0.0);
   top_growth_ = 0.0;
 }
 

@@ -40,8 +40,7 @@ struct SphereTreeParams {
 
 struct TreeNode {
   Vec3 center = Vec3::Zero();  ///< rest frame (m)
-  double radius = 0.0;         ///< current radius, after refit (m)
-  double rest_radius = 0.0;    ///< radius of the undeformed surface (m)
+  double rest_radius = 0.0;    ///< radius of the undeformed surface (m); the current one, after refit, is SphereTree::radius
   int child[2] = {-1, -1};     ///< children, -1 for a leaf
   int parent = -1;
   int depth = 0;
@@ -130,7 +129,8 @@ class SphereTree {
   /// Back to the rest shape.
   void ResetRefit();
   /// Radius of node i as refit (rest radius plus growth), what traversal must use.
-  double radius(int i) const { return nodes_[i].radius; }
+  /// Current radius of node i (m): its rest radius plus what refit grew it by.
+  double radius(int i) const { return hot_[i].radius; }
   /// Sum over all refits of the largest rise of a leaf's growth: no node's radius
   /// has grown by more than the difference of two readings since the first one
   /// (a radius grows only through its leaves; shrinking is not subtracted).
@@ -145,12 +145,13 @@ class SphereTree {
   void SplitAtGap(const PointCloud& cloud, int first, int count, int leaves, const Vec3& axis, int* split,
                   int* left_leaves) const;
 
-  // the node's radius into the copies read by traversal and gathering: the hot
-  // node's, and for a leaf its height with the growth (leaf_height)
-  void SyncRadius(int i) {
-    const TreeNode& n = nodes_[i];
-    hot_[i].radius = n.radius;
-    if (n.leaf >= 0) leaf_top_[n.leaf] = leaf_height_[n.leaf] + (n.radius - n.rest_radius);
+  // node i grown by g over its rest radius: its radius (kept in the hot node, what
+  // traversal reads) and, for a leaf, its height with the growth (leaf_height)
+  void SetGrowth(int i, double g) {
+    growth_[i] = g;
+    TraversalNode& hot = hot_[i];
+    hot.radius = rest_radius_[i] + g;
+    if (hot.IsLeaf()) leaf_top_[hot.leaf()] = leaf_height_[hot.leaf()] + (hot.radius - rest_radius_[i]);
   }
   std::vector<TreeNode> nodes_;
   std::vector<TraversalNode> hot_;
@@ -162,13 +163,16 @@ class SphereTree {
   std::vector<int> nbr_start_, nbr_items_;
   std::vector<Vec3> leaf_normal_;
   std::vector<double> leaf_height_;
-  std::vector<double> leaf_top_;    // leaf_height_ plus the leaf's growth (kept by SyncRadius)
+  std::vector<double> leaf_top_;    // leaf_height_ plus the leaf's growth (kept by SetGrowth)
   std::vector<double> leaf_min_cos_;
   std::vector<MlsPatch> patches_;
   std::vector<uint8_t> patch_ok_;
   std::vector<double> patch_error_;
   std::vector<double> fit_error_;
   std::vector<double> growth_;      // radius growth of each node over its rest radius (m)
+  // per node, what refit reads (copies of the tree nodes' fields, compact)
+  std::vector<double> rest_radius_;
+  std::vector<int> parent_, depth_;
   std::vector<int> dirty_;          // scratch for Refit
   std::vector<uint8_t> dirty_mark_;
   std::vector<int> stop_nodes_;     // nodes at the stop level (or leaves above it)

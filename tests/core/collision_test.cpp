@@ -109,7 +109,7 @@ void Compare(const Fixture& a, const Pose& pa, const Fixture& b, const Pose& pb,
     const Pose& pq = side == 0 ? pa : pb;
     const Pose& ps = side == 0 ? pb : pa;
     const Vec3 sc = ps.ApplyInverse(pq.t);
-    const double reach = s.geom.tree.node(0).radius;
+    const double reach = s.geom.tree.radius(0);
     for (size_t i = 0; i < q.geom.cloud.size(); ++i) {
       const Vec3 x = ps.ApplyInverse(pq.Apply(q.geom.cloud.positions[i]));
       if ((x - s.geom.tree.node(0).center).norm() > reach) continue;
@@ -124,7 +124,7 @@ void Compare(const Fixture& a, const Pose& pa, const Fixture& b, const Pose& pb,
       // surfaces touch, which on curved bodies can be a leaf or more away)
       bool covered = false;
       const Vec3 pw = pq.Apply(q.geom.cloud.positions[i]);
-      const double r = q.geom.tree.node(q.geom.tree.leaf_node(q.geom.tree.point_leaf()[i])).radius;
+      const double r = q.geom.tree.radius(q.geom.tree.leaf_node(q.geom.tree.point_leaf()[i]));
       for (const Contact& c : contacts.items) {
         const Fixture& f0 = c.body[0] == 0 ? a : b;
         const Pose& p0 = c.body[0] == 0 ? pa : pb;
@@ -216,7 +216,7 @@ TEST(Collision, FarStopLosesNoContact) {
     p[k % 3] = 0.03 * n[k % 3];
     // from 3 mm apart to 2 mm deep (reach: the body's largest extent along n, at most)
     const Mat3 R = RandomRotation(rng);
-    const double reach = q.geom.tree.node(0).radius;
+    const double reach = q.geom.tree.radius(0);
     const Pose pq{R, p + n * (reach * u01(rng) + 3e-3 - 5e-3 * u01(rng))};
     for (bool one_pass : {false, true}) {
       CollisionShape a = q.shape(), b = fbox->shape();
@@ -300,7 +300,7 @@ TEST(Collision, FarMemoryLosesNoContact) {
     on.Reserve(20000);
     off.Reserve(20000);
     const Mat3 R0 = RandomRotation(rng);
-    const double reach = q.geom.tree.node(0).radius;
+    const double reach = q.geom.tree.radius(0);
     Vec3 slide = Vec3::Zero();
     for (int k = 0; k < 300; ++k) {
       // from 3 mm above the top face to 1 mm into it and back, twice, sliding and
@@ -370,7 +370,7 @@ TEST(Collision, KeptFeetAreTheFreshProjectionsWithinTheirTolerance) {
     on.Reserve(20000);
     off.Reserve(20000);
     const Mat3 R0 = RandomRotation(rng);
-    const double reach = q.geom.tree.node(0).radius;
+    const double reach = q.geom.tree.radius(0);
     Vec3 at(0.004, -0.003, 0.03 + reach - 0.004 - 5e-4);
     double turn = 0.0;
     for (int k = 0; k < 450; ++k) {

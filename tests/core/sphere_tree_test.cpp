@@ -28,10 +28,12 @@ void CheckStructure(const BodyGeometry& g, int leaves) {
   ASSERT_EQ(t.num_leaves(), leaves);
   ASSERT_EQ(static_cast<int>(t.nodes().size()), 2 * leaves - 1);
   std::vector<int> seen(g.cloud.size(), 0);
-  for (const TreeNode& n : t.nodes()) {
+  for (size_t ni = 0; ni < t.nodes().size(); ++ni) {
+    const TreeNode& n = t.node(static_cast<int>(ni));
+    EXPECT_EQ(t.radius(static_cast<int>(ni)), n.rest_radius);  // not grown yet
     for (int k = n.first; k < n.first + n.count; ++k) {
       const int i = t.point_order()[k];
-      EXPECT_LE((g.cloud.positions[i] - n.center).norm(), n.radius + 1e-12);
+      EXPECT_LE((g.cloud.positions[i] - n.center).norm(), n.rest_radius + 1e-12);
       if (n.IsLeaf()) ++seen[i];
     }
     if (!n.IsLeaf()) {
@@ -60,7 +62,7 @@ void CheckCoverage(const BodyGeometry& g, const ShapeDesc& shape, int samples) {
   PointGrid leaf_grid;
   leaf_grid.Build(t.control_points(), 2 * g.spacing);
   double max_r = 0;
-  for (int l = 0; l < t.num_leaves(); ++l) max_r = std::max(max_r, t.node(t.leaf_node(l)).radius);
+  for (int l = 0; l < t.num_leaves(); ++l) max_r = std::max(max_r, t.radius(t.leaf_node(l)));
   PointGrid grid;
   grid.Build(g.cloud.positions, 2 * g.spacing);
   std::mt19937_64 rng(11);
@@ -84,7 +86,7 @@ void CheckCoverage(const BodyGeometry& g, const ShapeDesc& shape, int samples) {
     leaves.clear();
     leaf_grid.Query(proj.point, max_r, &leaves);
     bool inside = false;
-    for (int l : leaves) inside |= (proj.point - t.control_point(l)).norm() <= t.node(t.leaf_node(l)).radius;
+    for (int l : leaves) inside |= (proj.point - t.control_point(l)).norm() <= t.radius(t.leaf_node(l));
     uncovered += !inside;
   }
   EXPECT_GT(projected, samples * 9 / 10);
@@ -164,6 +166,7 @@ TEST(SphereTree, RefitTouchesOnlyDeformedSubtreesAndEnclosesTheGrowth) {
   changed[5] = changed[200] = 1;
   const int stop = 3;
   RefitStats stats;
+  const double height_5 = t.leaf_height(5);
   t.Refit(u.data(), spread.data(), changed.data(), stop, &stats);
   EXPECT_EQ(stats.leaves_changed, 2);
   // at most: the two leaves, their ancestors down to the stop level, and the nodes above it
@@ -173,21 +176,26 @@ TEST(SphereTree, RefitTouchesOnlyDeformedSubtreesAndEnclosesTheGrowth) {
     for (int n = t.leaf_node(l); n >= 0; n = t.node(n).parent) on_path[n] = 1;
   for (size_t i = 0; i < t.nodes().size(); ++i) {
     const TreeNode& n = t.node(static_cast<int>(i));
+    const double r = t.radius(static_cast<int>(i));
     if (n.depth < stop) {
-      EXPECT_GE(n.radius, n.rest_radius + 5e-4 - 1e-15);  // inflated by the largest growth
+      EXPECT_GE(r, n.rest_radius + 5e-4 - 1e-15);  // inflated by the largest growth
     } else if (on_path[i]) {
-      EXPECT_GT(n.radius, n.rest_radius);
+      EXPECT_GT(r, n.rest_radius);
     } else {
-      EXPECT_EQ(n.radius, n.rest_radius) << "node " << i << " was touched";
+      EXPECT_EQ(r, n.rest_radius) << "node " << i << " was touched";
     }
+    EXPECT_EQ(t.traversal()[i].radius, r);  // what traversal reads
   }
-  EXPECT_DOUBLE_EQ(t.node(t.leaf_node(5)).radius, t.node(t.leaf_node(5)).rest_radius + 5e-4);
+  EXPECT_DOUBLE_EQ(t.radius(t.leaf_node(5)), t.node(t.leaf_node(5)).rest_radius + 5e-4);
+  // a leaf's height grows with its sphere
+  EXPECT_DOUBLE_EQ(t.leaf_height(5), height_5 + 5e-4);
   // relaxing back shrinks the path again
   u[5].setZero();
   u[200].setZero();
   spread[5] = 0;
   t.Refit(u.data(), spread.data(), changed.data(), stop, &stats);
-  for (const TreeNode& n : t.nodes()) EXPECT_DOUBLE_EQ(n.radius, n.rest_radius);
+  for (size_t i = 0; i < t.nodes().size(); ++i) EXPECT_DOUBLE_EQ(t.radius(static_cast<int>(i)), t.node(static_cast<int>(i)).rest_radius);
+  EXPECT_DOUBLE_EQ(t.leaf_height(5), height_5);
   // nothing changed: nothing visited
   std::fill(changed.begin(), changed.end(), 0);
   t.Refit(u.data(), spread.data(), changed.data(), stop, &stats);
