@@ -216,7 +216,9 @@ std::vector<Case> Cases() {
                    [](World& w) { FallingBalls(w, 0.0205); },
                    [](World& w) { FallingBalls(w, 0.10); },
                    20,
-                   {{"pair_tests", &StepWork::pair_tests}, {"pairs_traversed", &StepWork::pairs_traversed}}});
+                   {{"pair_tests", &StepWork::pair_tests},
+                    {"pairs_traversed", &StepWork::pairs_traversed},
+                    {"pairs_clear", &StepWork::pairs_clear}}});
   cases.push_back({"rest", "awake", "asleep",
                    [](World& w) { Stack(w, false); },
                    [](World& w) { Stack(w, true); },

@@ -230,7 +230,7 @@ void GatherSide(const std::vector<CollisionScratch::LeafPair>& pairs, const Side
 // serves tens of thousands a step, not written out and read back); returns true then.
 bool CachedLeafPairs(const TraversalNode* na, const TraversalNode* nb, const SphereTree& ta, const SphereTree& tb,
                      bool in_b, const Pose& moved_pose, const CollisionParams& params, PairCache* cache,
-                     CollisionScratch* s, CollisionStats* local, const SideGather* gather) {
+                     CollisionScratch* s, CollisionStats* local, const SideGather* gather, double* spare) {
   const double thr = params.contact_threshold;
   const double extent = (in_b ? ta : tb).center_extent();
   const double radii = ta.mean_leaf_radius() + tb.mean_leaf_radius();
@@ -252,17 +252,28 @@ bool CachedLeafPairs(const TraversalNode* na, const TraversalNode* nb, const Sph
   const TraversalNode* next_a = in_b ? cache->next_nodes.data() : na;
   const TraversalNode* next_b = in_b ? nb : cache->next_nodes.data();
 
-  if (cache->valid && used(cache->moved, cache->drift_a, cache->drift_b) <= cache->margin) {
-    // served: every pair a traversal would find now is in the list
+  const double used_served = cache->valid ? used(cache->moved, cache->drift_a, cache->drift_b) : 0.0;
+  *spare = -std::numeric_limits<double>::infinity();
+  if (cache->valid && used_served <= cache->margin) {
+    // served: every pair a traversal would find now is in the list, and the pairs
+    // left out of it are farther apart than the threshold by what is left of its
+    // margin. A pair of the list that does not overlap keeps the control point of
+    // each leaf (its centre, where its contacts are made) beyond the threshold from
+    // the other leaf's sphere by the centres' distance less the larger radius.
     s->pairs.clear();
     int overlapping = 0;
+    double apart = cache->margin - used_served;
     for (const auto& [ia, ib] : cache->pairs) {
       const TraversalNode& x = na[ia];
       const TraversalNode& y = nb[ib];
       const double reach = x.radius + y.radius + thr;
       const Vec3 d = x.center - y.center;
       const double d2 = d.squaredNorm();
-      if (d2 > reach * reach) continue;
+      if (d2 > reach * reach) {
+        const double near = std::max(x.radius, y.radius) + thr;
+        if (d2 < (near + apart) * (near + apart)) apart = std::sqrt(d2) - near;
+        continue;
+      }
       ++overlapping;
       if (gather)
         gather->Add(x.leaf(), y.leaf(), d2, d);
@@ -273,6 +284,7 @@ bool CachedLeafPairs(const TraversalNode* na, const TraversalNode* nb, const Sph
     local->leaf_pairs += overlapping;
     ++local->cache_hits;
     fused = gather != nullptr;
+    *spare = apart;
   } else {
     bool from_wide = false, traversed = false;
     if (wide_on) {
@@ -750,8 +762,11 @@ void ProjectSide(int id_q, const SphereTree& tq, const Pose& q_to_s, int id_s, c
                  std::vector<int>* best,
                  std::vector<double>* best_d2, std::vector<double>* lift, std::vector<int>* touched,
                  std::vector<PairCache::FarMark>* marks, CollisionScratch* s, ContactBuffer* out,
-                 CollisionStats* stats) {
+                 CollisionStats* stats, double* spare) {
   const SphereTree& ts = *surf.tree;
+  constexpr double kUnknown = -std::numeric_limits<double>::infinity();
+  // the least any control point is proven to stand beyond the threshold (PairCache::clear)
+  auto apart = [spare](double d) { *spare = std::min(*spare, d); };
   const double thr = params.contact_threshold;
   // the marks serve where every projection is the closest-point one at the body's bandwidth
   PairCache::FarMark* mark = marks && params.far_memory && params.far_stop && params.max_bandwidth_factor <= 1.0 &&
@@ -776,6 +791,7 @@ void ProjectSide(int id_q, const SphereTree& tq, const Pose& q_to_s, int id_s, c
     // above the slab of every overlapping leaf by more than delta_eps: no surface within delta_eps
     if (above > params.contact_threshold) {
       ++stats->culled;
+      apart(above - thr);
       continue;
     }
     // bandwidth from the distance between the coupled centres, clamped to the body's range
@@ -783,6 +799,7 @@ void ProjectSide(int id_q, const SphereTree& tq, const Pose& q_to_s, int id_s, c
     const Vec3 x = q_to_s.Apply(tq.control_point(lq));
     if (mark && Remembered(mark[lq], x, ls, thr)) {
       ++stats->remembered;
+      apart(mark[lq].outside - (x - mark[lq].x).norm() - thr);
       continue;
     }
     MlsProjection proj;
@@ -802,11 +819,13 @@ void ProjectSide(int id_q, const SphereTree& tq, const Pose& q_to_s, int id_s, c
       if (ok && proj.far) {
         ++stats->far;
         if (mark) mark[lq] = {x, proj.outside, ls};
+        apart(proj.outside - thr);
         continue;
       }
       if (!ok || !proj.point.allFinite() || !proj.normal.allFinite()) {
         ++stats->rejected;
         if (mark) mark[lq] = {};
+        apart(kUnknown);
         continue;
       }
       // its foot when converged (how far outside x stands is known once it gives no contact)
@@ -815,14 +834,17 @@ void ProjectSide(int id_q, const SphereTree& tq, const Pose& q_to_s, int id_s, c
     }
     // a projection outside the coupled node's border is a curvature artefact (the
     // node coupled by the traversal, not the leaf the projection ended in)
+    // (a point rejected for the shape of its foot proves nothing about how near it is)
     if (params.curvature_rejection && !WithinCoupledBorder(ts, ls, proj.point)) {
       ++stats->rejected;
       ++stats->out_of_border;
+      apart(kUnknown);
       continue;
     }
     if (two_pass && params.edge_rule && FlatOnEdge(tq, lq, ts, coupled)) {
       ++stats->rejected;
       ++stats->on_edges;
+      apart(kUnknown);
       continue;
     }
     const double gap = (x - proj.point).dot(proj.normal);  // eq. 4: negative inside
@@ -839,10 +861,14 @@ void ProjectSide(int id_q, const SphereTree& tq, const Pose& q_to_s, int id_s, c
     if (gap < -kDeepFraction * h && proj.normal.dot(q_to_s.R * tq.leaf_normal(lq)) > -kFacingCos &&
         !SmoothlyCurved(tq, lq) && !SmoothlyCurved(ts, coupled)) {
       ++stats->rejected;
+      apart(kUnknown);
       continue;
     }
     if (!(gap < params.contact_threshold)) {
-      if (mark && !kept) mark[lq].outside = gap - FootError(ts, coupled, proj, mls);
+      // a kept foot: what its projection may have been off by, and the motion since
+      const double outside = gap - (kept ? 2.0 * mls.tolerance * h / kContraction + keep : FootError(ts, coupled, proj, mls));
+      if (mark && !kept) mark[lq].outside = outside;
+      apart(outside - thr);
       continue;
     }
     Contact c;
@@ -857,10 +883,14 @@ void ProjectSide(int id_q, const SphereTree& tq, const Pose& q_to_s, int id_s, c
     // S the rounding's foot is level with it, no support below S
     if (pg.beside) {
       ++stats->rejected;
+      apart(kUnknown);
       continue;
     }
     const double gap_n = pg.face ? (x - proj.point).dot(pg.normal) : gap;
-    if (!(gap_n < params.contact_threshold)) continue;
+    if (!(gap_n < params.contact_threshold)) {
+      apart(kUnknown);
+      continue;
+    }
     // Between rigid surfaces the anchors move to the touching point. Deforming
     // surfaces conform over a patch: each sample presses where it is, its eq. 8
     // weights and friction stay there, and only its normal force's lever arm for the
@@ -879,6 +909,7 @@ void ProjectSide(int id_q, const SphereTree& tq, const Pose& q_to_s, int id_s, c
     c.gap = gap_n;
     c.key = ContactKey(id_q, id_s, lq);
     if (out->Push(c)) ++stats->contacts;
+    apart(kUnknown);
   }
   touched->clear();
 }
@@ -1087,6 +1118,20 @@ bool RootsOverlap(const CollisionShape& a, const Pose& pose_a, const CollisionSh
   return (pose_a.Apply(ra.center) - pose_b.Apply(rb.center)).squaredNorm() <= reach * reach;
 }
 
+bool PairStaysClear(const CollisionShape& a, const Pose& pose_a, const CollisionShape& b, const Pose& pose_b,
+                    const PairCache& cache, double threshold) {
+  if (!cache.clear || cache.clear_threshold != threshold || a.is_plane || b.is_plane || !a.tree || !b.tree)
+    return false;
+  // the motion since as CollidePair measures it: the smaller tree moved into the larger one's frame
+  const Pose b_in_a = pose_a.Inverse() * pose_b;
+  const bool in_b = a.tree->nodes().size() <= b.tree->nodes().size();
+  if (in_b != cache.in_b) return false;
+  const Pose moved = in_b ? b_in_a.Inverse() : b_in_a;
+  const double used = UsedMargin(moved, cache.clear_moved, cache.clear_drift_a, cache.clear_drift_b,
+                                 (in_b ? *a.tree : *b.tree).center_extent(), *a.tree, *b.tree);
+  return used < cache.clearance;
+}
+
 void CollidePair(int id_a, const CollisionShape& a, const Pose& pose_a, int id_b, const CollisionShape& b,
                  const Pose& pose_b, const CollisionParams& params, CollisionScratch* s, ContactBuffer* out,
                  CollisionStats* stats, PairCache* cache) {
@@ -1146,8 +1191,9 @@ void CollidePair(int id_a, const CollisionShape& a, const Pose& pose_a, int id_b
   }
   const SideGather* gather = one_pass ? &*one_pass : nullptr;
   bool gathered = false;
+  double spare = -std::numeric_limits<double>::infinity();  // how far apart the pair is proven (PairCache::clear)
   if (cache && cache->limit > 0 && params.pair_cache_margin > 0.0)
-    gathered = CachedLeafPairs(na, nb, ta, tb, in_b, moved_pose, params, cache, s, &local, gather);
+    gathered = CachedLeafPairs(na, nb, ta, tb, in_b, moved_pose, params, cache, s, &local, gather, &spare);
   else
     TraverseTrees(na, ta.span_end(), ta.root(), nb, tb.span_end(), tb.root(), thr, s, &local);
   if (gather && !gathered) GatherSide(s->pairs, *gather);
@@ -1190,9 +1236,21 @@ void CollidePair(int id_a, const CollisionShape& a, const Pose& pose_a, int id_b
   const bool rigid = !a.deforms && !b.deforms;
   const bool two_pass = emit_a && emit_b;
   ProjectSide(id_a, *a.tree, a_in_b, id_b, b, pose_b, params, emit_a, two_pass, rigid, &s->best_a, &s->best_a_d2,
-              &s->lift_a, &s->touched_a, cache ? &cache->far_a : nullptr, s, out, &local);
+              &s->lift_a, &s->touched_a, cache ? &cache->far_a : nullptr, s, out, &local, &spare);
   ProjectSide(id_b, *b.tree, b_in_a, id_a, a, pose_a, params, emit_b, two_pass, rigid, &s->best_b, &s->best_b_d2,
-              &s->lift_b, &s->touched_b, cache ? &cache->far_b : nullptr, s, out, &local);
+              &s->lift_b, &s->touched_b, cache ? &cache->far_b : nullptr, s, out, &local, &spare);
+  if (cache) {
+    // no contact, and every control point proven farther than the threshold by `spare`
+    cache->clear = params.skip_clear_pairs && params.max_bandwidth_factor <= 1.0 && local.contacts == 0 &&
+                   out->dropped == dropped_before && spare > 0.0;
+    if (cache->clear) {
+      cache->clearance = spare;
+      cache->clear_threshold = params.contact_threshold;
+      cache->clear_moved = moved_pose;
+      cache->clear_drift_a = ta.growth_drift();
+      cache->clear_drift_b = tb.growth_drift();
+    }
+  }
   const auto t2 = Clock::now();
   local.traverse_s += Seconds(t0, t1);
   local.project_s += Seconds(t1, t2);

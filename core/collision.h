@@ -97,6 +97,10 @@ struct CollisionParams {
   /// 0: no wide list (every refill descends the trees).
   double pair_cache_wide_margin = 1.0;
   int pair_cache_slice_tests = 512;
+  /// A pair whose last detection found no contact and proved its control points
+  /// apart by more than the motion since is not detected (PairCache::clear): its
+  /// result would be no contact. false: detected in every step.
+  bool skip_clear_pairs = true;
 };
 
 /// One contact: control point `leaf` of body[0] against the surface of body[1].
@@ -224,6 +228,16 @@ struct PairCache {
     Vec3 normal = Vec3::Zero();
   };
   std::vector<FarMark> far_a, far_b;
+  /// The last detection found no contact and proved every control point that could
+  /// make one farther from the other surface than the threshold by `clearance` (m):
+  /// the sphere gaps of the served list's other pairs, the slabs, far stops, far
+  /// memories and gaps of the rest. While the motion since (`clear_moved`, the
+  /// trees' growth then) stays below it the pair has no contact (PairStaysClear).
+  bool clear = false;
+  double clearance = 0.0;
+  double clear_threshold = 0.0;  ///< the contact threshold it was proven for
+  Pose clear_moved;
+  double clear_drift_a = 0.0, clear_drift_b = 0.0;
   bool reserved = false;  ///< the lists have their first capacity (they grow from it as the pair needs)
   /// Gives the lists their first capacity (moved_nodes: the larger tree's node count).
   void ReserveStart(size_t moved_nodes);
@@ -233,6 +247,7 @@ struct PairCache {
     valid = false;
     wide.valid = false;
     building = false;
+    clear = false;
   }
 };
 
@@ -280,6 +295,12 @@ bool WithinCoupledBorder(const SphereTree& ts, int coupled_leaf, const Vec3& foo
 void CollidePair(int id_a, const CollisionShape& a, const Pose& pose_a, int id_b, const CollisionShape& b,
                  const Pose& pose_b, const CollisionParams& params, CollisionScratch* scratch, ContactBuffer* out,
                  CollisionStats* stats, PairCache* cache = nullptr);
+
+/// True when the pair's last detection (CollidePair with `cache`) proved it apart
+/// by more than the bodies have moved since: it has no contact now, exactly, and
+/// need not be detected (CollisionParams::skip_clear_pairs).
+bool PairStaysClear(const CollisionShape& a, const Pose& pose_a, const CollisionShape& b, const Pose& pose_b,
+                    const PairCache& cache, double threshold);
 
 /// True when the root spheres (plus the threshold) overlap: the broad phase.
 bool RootsOverlap(const CollisionShape& a, const Pose& pose_a, const CollisionShape& b, const Pose& pose_b,

@@ -42,7 +42,8 @@ bool Kept(EPair e) { return e != EPair::Detect; }
 // Calls visit(i, j, what) for every body pair to detect this step, in the pair
 // loop's order (i, then j > i): asleep (its last contacts reused, sleep.cpp),
 // carried in a step short of time (its last contacts reused, carried_contacts.cpp)
-// or detected, whose root spheres overlap.
+// or detected, whose root spheres overlap and which its last detection did not
+// prove apart by more than the motion since (PairStaysClear: no contact, not visited).
 template <class Visit>
 void ForEachPairToDetect(World& w, Visit&& visit) {
   const int n = static_cast<int>(w.bodies.size());
@@ -63,6 +64,13 @@ void ForEachPairToDetect(World& w, Visit&& visit) {
       if (!RootsOverlap(sa, a.pose, b.Shape(), b.pose, w.params.collision.contact_threshold)) continue;
       if (w.carrying_ && PairCarried(w, i, j)) {
         visit(i, j, EPair::Carried);
+        continue;
+      }
+      // proven apart by more than the bodies moved since its last detection: no contact
+      const PairCache* cache = CacheOf(w, i, j);
+      const double thr = w.params.collision.contact_threshold;
+      if (w.params.collision.skip_clear_pairs && cache && PairStaysClear(sa, a.pose, b.Shape(), b.pose, *cache, thr)) {
+        ++w.profile.work.pairs_clear;
         continue;
       }
       ++w.profile.work.pairs_traversed;

@@ -428,6 +428,7 @@ struct StepWork {
   int body_pairs = 0;         ///< body pairs that both can move or deform (candidates of the broad phase)
   int pair_tests = 0;         ///< bounding-sphere tests of the broad phase (one per candidate pair)
   int pairs_traversed = 0;    ///< body pairs whose trees were traversed (bounding spheres overlap)
+  int pairs_clear = 0;        ///< body pairs not detected: proven apart by more than their motion since (PairStaysClear)
   int pairs_from_cache = 0;   ///< of those, pairs of trees served by their leaf-pair cache (no descent)
   int node_tests = 0;         ///< sphere tests of collision detection (descents and cached lists)
   int pairs_on_lanes = 0;     ///< of pairs_traversed, pairs detected as tasks on the runner's threads (World::UseRunner)
