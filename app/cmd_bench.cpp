@@ -49,7 +49,8 @@ void AddBenchCommand(CLI::App& app, int* exit_code) {
                    "synthetic power grasp: 1.0)")
       ->type_name("SECONDS")
       ->check(InRange(0.0, 3600.0, "a simulated time in seconds"));
-  step->add_option("--seconds", opt->seconds, "the length of the timed window (default: the hold's, 1 s; --quick 0.2 s)")
+  step->add_option("--seconds", opt->seconds,
+                   "the length of the timed window (default: the hold's, 1 s; --quick 0.2 s)")
       ->type_name("SECONDS")
       ->check(InRange(0.001, 3600.0, "a number of seconds"));
   AddThreadsOption(step, &opt->threads);

@@ -35,7 +35,8 @@ double MotionAgainst(const Body& a, const Body& b) {
   const Pose before = Relative(a.pose_detected, b.pose_detected);
   const Pose now = Relative(a.pose, b.pose);
   const double turn = Angle(now.R * before.R.transpose());
-  return (now.Apply(root.center) - before.Apply(root.center)).norm() + turn * a.geometry.tree.radius(a.geometry.tree.root());
+  const double radius = a.geometry.tree.radius(a.geometry.tree.root());
+  return (now.Apply(root.center) - before.Apply(root.center)).norm() + turn * radius;
 }
 
 // How far a contact's point on body s has slid against the other body since the

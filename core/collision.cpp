@@ -866,7 +866,8 @@ void ProjectSide(int id_q, const SphereTree& tq, const Pose& q_to_s, int id_s, c
     }
     if (!(gap < params.contact_threshold)) {
       // a kept foot: what its projection may have been off by, and the motion since
-      const double outside = gap - (kept ? 2.0 * mls.tolerance * h / kContraction + keep : FootError(ts, coupled, proj, mls));
+      const double error = kept ? 2.0 * mls.tolerance * h / kContraction + keep : FootError(ts, coupled, proj, mls);
+      const double outside = gap - error;
       if (mark && !kept) mark[lq].outside = outside;
       apart(outside - thr);
       continue;

@@ -40,7 +40,7 @@ struct SphereTreeParams {
 
 struct TreeNode {
   Vec3 center = Vec3::Zero();  ///< rest frame (m)
-  double rest_radius = 0.0;    ///< radius of the undeformed surface (m); the current one, after refit, is SphereTree::radius
+  double rest_radius = 0.0;    ///< radius of the undeformed surface (m); after refit: SphereTree::radius
   int child[2] = {-1, -1};     ///< children, -1 for a leaf
   int parent = -1;
   int depth = 0;

@@ -194,7 +194,7 @@ TEST(SphereTree, RefitTouchesOnlyDeformedSubtreesAndEnclosesTheGrowth) {
   u[200].setZero();
   spread[5] = 0;
   t.Refit(u.data(), spread.data(), changed.data(), stop, &stats);
-  for (size_t i = 0; i < t.nodes().size(); ++i) EXPECT_DOUBLE_EQ(t.radius(static_cast<int>(i)), t.node(static_cast<int>(i)).rest_radius);
+  for (int i = 0; i < static_cast<int>(t.nodes().size()); ++i) EXPECT_DOUBLE_EQ(t.radius(i), t.node(i).rest_radius);
   EXPECT_DOUBLE_EQ(t.leaf_height(5), height_5);
   // nothing changed: nothing visited
   std::fill(changed.begin(), changed.end(), 0);
