@@ -768,6 +768,12 @@ void ProjectSide(int id_q, const SphereTree& tq, const Pose& q_to_s, int id_s, c
   // the least any control point is proven to stand beyond the threshold (PairCache::clear)
   auto apart = [spare](double d) { *spare = std::min(*spare, d); };
   const double thr = params.contact_threshold;
+  // a point whose projection proves nothing (failed, rejected) is still apart by its
+  // distance to the surface's leaf spheres, while the pair may yet prove clear
+  auto unproven = [&](const Vec3& x) {
+    const bool open = stats->contacts == 0 && *spare > 0.0;  // stats: the pair's own
+    apart(open ? SphereDistanceBound(ts, x, s) - thr : kUnknown);
+  };
   // the marks serve where every projection is the closest-point one at the body's bandwidth
   PairCache::FarMark* mark = marks && params.far_memory && params.far_stop && params.max_bandwidth_factor <= 1.0 &&
                                      marks->size() >= static_cast<size_t>(tq.num_leaves())
@@ -825,7 +831,7 @@ void ProjectSide(int id_q, const SphereTree& tq, const Pose& q_to_s, int id_s, c
       if (!ok || !proj.point.allFinite() || !proj.normal.allFinite()) {
         ++stats->rejected;
         if (mark) mark[lq] = {};
-        apart(kUnknown);
+        unproven(x);
         continue;
       }
       // its foot when converged (how far outside x stands is known once it gives no contact)
@@ -838,13 +844,13 @@ void ProjectSide(int id_q, const SphereTree& tq, const Pose& q_to_s, int id_s, c
     if (params.curvature_rejection && !WithinCoupledBorder(ts, ls, proj.point)) {
       ++stats->rejected;
       ++stats->out_of_border;
-      apart(kUnknown);
+      unproven(x);
       continue;
     }
     if (two_pass && params.edge_rule && FlatOnEdge(tq, lq, ts, coupled)) {
       ++stats->rejected;
       ++stats->on_edges;
-      apart(kUnknown);
+      unproven(x);
       continue;
     }
     const double gap = (x - proj.point).dot(proj.normal);  // eq. 4: negative inside
@@ -861,7 +867,7 @@ void ProjectSide(int id_q, const SphereTree& tq, const Pose& q_to_s, int id_s, c
     if (gap < -kDeepFraction * h && proj.normal.dot(q_to_s.R * tq.leaf_normal(lq)) > -kFacingCos &&
         !SmoothlyCurved(tq, lq) && !SmoothlyCurved(ts, coupled)) {
       ++stats->rejected;
-      apart(kUnknown);
+      unproven(x);
       continue;
     }
     if (!(gap < params.contact_threshold)) {
@@ -884,12 +890,12 @@ void ProjectSide(int id_q, const SphereTree& tq, const Pose& q_to_s, int id_s, c
     // S the rounding's foot is level with it, no support below S
     if (pg.beside) {
       ++stats->rejected;
-      apart(kUnknown);
+      unproven(x);
       continue;
     }
     const double gap_n = pg.face ? (x - proj.point).dot(pg.normal) : gap;
     if (!(gap_n < params.contact_threshold)) {
-      apart(kUnknown);
+      unproven(x);
       continue;
     }
     // Between rigid surfaces the anchors move to the touching point. Deforming
@@ -1006,6 +1012,30 @@ void CollidePlane(int id_q, const SphereTree& tq, const Pose& pose_q, bool defor
 }
 
 }  // namespace
+
+// Depth first, the nearer child first, pruned by the best leaf so far.
+double SphereDistanceBound(const SphereTree& ts, const Vec3& x, CollisionScratch* s) {
+  double best = std::numeric_limits<double>::infinity();
+  s->node_stack.clear();
+  s->node_stack.push_back(ts.root());
+  while (!s->node_stack.empty()) {
+    const TreeNode& n = ts.node(s->node_stack.back());
+    s->node_stack.pop_back();
+    const double d = (x - n.center).norm() - n.rest_radius;
+    if (d >= best) continue;
+    if (n.IsLeaf()) {
+      best = d;
+      continue;
+    }
+    if (s->node_stack.size() + 2 > s->node_stack.capacity()) return -std::numeric_limits<double>::infinity();
+    const TreeNode& c0 = ts.node(n.child[0]);
+    const TreeNode& c1 = ts.node(n.child[1]);
+    const bool first0 = (x - c0.center).squaredNorm() <= (x - c1.center).squaredNorm();
+    s->node_stack.push_back(first0 ? n.child[1] : n.child[0]);
+    s->node_stack.push_back(first0 ? n.child[0] : n.child[1]);
+  }
+  return best;
+}
 
 bool ProjectOntoSurface(const Vec3* positions, const Vec3* normals, const int* idx, int count, const Vec3& x,
                         const MlsParams& mls, MlsProjection* out) {

@@ -296,6 +296,13 @@ void CollidePair(int id_a, const CollisionShape& a, const Pose& pose_a, int id_b
                  const Pose& pose_b, const CollisionParams& params, CollisionScratch* scratch, ContactBuffer* out,
                  CollisionStats* stats, PairCache* cache = nullptr);
 
+/// A lower bound on the distance from x (the tree's rest frame) to the surface the
+/// tree covers: the distance to its nearest leaf sphere (each leaf's points plus the
+/// coverage margin, which the traversal's pairing rests on), negative inside one;
+/// -inf when the scratch's stack would have to grow. ProjectSide proves a point apart
+/// by it where its projection proves nothing (failed or rejected).
+double SphereDistanceBound(const SphereTree& ts, const Vec3& x, CollisionScratch* s);
+
 /// True when the pair's last detection (CollidePair with `cache`) proved it apart
 /// by more than the bodies have moved since: it has no contact now, exactly, and
 /// need not be detected (CollisionParams::skip_clear_pairs).

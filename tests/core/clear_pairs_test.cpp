@@ -3,10 +3,13 @@
 // the threshold by more than the bodies have moved since is not detected. Skipping it
 // must change nothing: detection at the same poses finds no contact in any step that
 // skipped, and a ball dropped onto a slab lands in the same step and moves the same
-// with the skip as without.
+// with the skip as without. A point whose projection proves nothing is proven apart
+// by its distance to the other tree's leaf spheres (SphereDistanceBound), a lower
+// bound on its distance to that surface.
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <random>
 #include <vector>
 
 #include "core/world.h"
@@ -71,6 +74,52 @@ TEST(ClearPairs, TheBallLandsAndMovesAsWithDetectionInEveryStep) {
   // after landing the projections may start from other feet (the far memory of the
   // skipped steps), each within the MLS tolerance: the paths stay within 0.1 um
   EXPECT_LT(worst, 1e-7);
+}
+
+// Around the soft ball (1 cm radius) and the slab, points from one leaf radius inside
+// to three outside: the
+// bound never exceeds the distance to the MLS surface (the foot of the projection
+// over all the body's points), and it is not trivial: within one leaf sphere's
+// diameter of it.
+TEST(ClearPairs, SphereDistanceBoundIsALowerBoundOnTheDistanceToTheSurface) {
+  World w;
+  const int slab = AddBody(w, test::SoftSlab("slab"));
+  const int ball = AddBody(w, test::SoftBall(Vec3(0.0, 0.0, 0.05)));
+  ASSERT_GE(slab, 0);
+  ASSERT_GE(ball, 0);
+  w.Finalize();
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  for (const int id : {ball, slab}) {
+    const CollisionShape shape = w.bodies[id].Shape();
+    const SphereTree& t = *shape.tree;
+    const PointCloud& cloud = *shape.cloud;
+    CollisionScratch s;
+    s.Reserve(t.num_leaves(), 1024);
+    double widest = 0.0;
+    for (int l = 0; l < t.num_leaves(); ++l) widest = std::max(widest, t.node(t.leaf_node(l)).rest_radius);
+    std::vector<int> all(cloud.positions.size());
+    for (size_t i = 0; i < all.size(); ++i) all[i] = static_cast<int>(i);
+    int outside = 0;
+    for (int k = 0; k < 200; ++k) {
+      // a surface sample moved along its normal by -1 .. 3 leaf radii and sideways by half of one
+      const int i = static_cast<int>((unit(rng) + 1.0) * 0.5 * (cloud.positions.size() - 1));
+      const Vec3 side(unit(rng), unit(rng), unit(rng));
+      const Vec3 x = cloud.positions[i] + widest * ((1.0 + 2.0 * unit(rng)) * cloud.normals[i] + 0.5 * side);
+      const double bound = SphereDistanceBound(t, x, &s);
+      ASSERT_TRUE(std::isfinite(bound));
+      MlsProjection proj;
+      if (!ProjectOntoSurface(cloud.positions.data(), cloud.normals.data(), all.data(), static_cast<int>(all.size()),
+                              x, shape.mls, &proj) ||
+          !proj.converged)
+        continue;
+      const double dist = (x - proj.point).norm();
+      EXPECT_LE(bound, dist + 1e-9) << "body " << id << " point " << k;
+      EXPECT_GE(bound, dist - 2.0 * widest) << "body " << id << " point " << k;
+      outside += bound > 0.0 ? 1 : 0;
+    }
+    EXPECT_GT(outside, 20) << "body " << id << ": the bound proved no point outside a leaf sphere";
+  }
 }
 
 }  // namespace
