@@ -122,6 +122,135 @@ void FinishRow(World& w, ContactRow* row, double gap_def, const Vec3& slip_def, 
   }
 }
 
+// The rigid part of contact c's row (row.prev set): its frame, the free slip of its
+// material points, the Jacobian rows of its finger sides (into w.side_jacobians from
+// `jacobian` on, FingerSides of them) and W_rigid,cc.
+void BuildRigidRow(World& w, const Contact& c, ContactRow& row, int jacobian, int* weights_reused) {
+  row.contact = c;
+  const Vec3 n = c.normal;
+  const Vec3 t1 = AnyPerpendicular(n);
+  const Vec3 t2 = n.cross(t1);
+  Mat3 frame;  // read back below from here, not from the row just written
+  frame.row(0) = n;
+  frame.row(1) = t1;
+  frame.row(2) = t2;
+  row.frame = frame;
+  Vec3 world_pt[2];
+  Vec3 slip = Vec3::Zero();
+  double normal_turn = 0.0;  // what the free motion adds to the normal slip at the touching points
+  row.w_diag.setZero();
+  for (int s = 0; s < 2; ++s) {
+    const Body& b = w.bodies[c.body[s]];
+    ContactSide& side = row.side[s];
+    side.body = c.body[s];
+    side.sign = s == 0 ? 1.0 : -1.0;
+    world_pt[s] = b.pose.Apply(c.anchor[s]);
+    side.articulation = b.articulation;
+    side.jacobian = -1;
+    side.count = 0;
+    side.inf_begin = side.inf_count = 0;
+    side.w_deform = 0.0;
+    // eq. 8 weights of the contact point over the control points (deformable bodies):
+    // the query side's contact point is the control point itself
+    if (b.deform.enabled()) {
+      if (s == 0) {
+        side.count = 1;
+        side.idx[0] = c.leaf;
+        side.w[0] = 1.0;
+        side.weights_at = c.anchor[0];
+      } else if (c.surface_leaf >= 0) {
+        const ContactSide* ps = row.prev >= 0 ? &w.rows_prev[row.prev].side[1] : nullptr;
+        const double tol = w.params.reuse_anchor_tolerance * b.deform.spacing();
+        if (ps && ps->body == side.body && ps->count > 0 && w.rows_prev[row.prev].contact.surface_leaf == c.surface_leaf &&
+            (c.anchor[1] - ps->weights_at).squaredNorm() <= tol * tol) {
+          // the anchor has barely moved: the last step's interpolation (bit for bit when
+          // the anchor is unchanged, and then its merged influence is reused below)
+          side.count = ps->count;
+          std::copy(ps->idx, ps->idx + ps->count, side.idx);
+          std::copy(ps->w, ps->w + ps->count, side.w);
+          side.weights_at = ps->weights_at;
+          ++*weights_reused;
+        } else {
+          side.count = b.deform.Interpolate(c.anchor[1], c.surface_leaf, side.idx, side.w, ContactSide::kMaxWeights);
+          side.weights_at = c.anchor[1];
+        }
+      }
+    }
+    // The material point: on a deformable body, the rest anchor displaced by u. The
+    // body's rotation turns it where it is, so the Jacobian's lever arm ends there. With
+    // the arm to the rest anchor instead, a contact torque that turns a fingertip by
+    // dtheta per step moves its squashed contact points by dtheta x R u unseen by the
+    // solver (0.2 um per step in the pinch, u = 0.8 mm): a grasp the solver holds in
+    // sticking friction creeps. u is the last step's displacement, which this step's
+    // stays close to; what is left, dtheta x (u_new - u), vanishes in a steady hold.
+    const Vec3 x = side.count > 0 ? Vec3(c.anchor[s] + SideDisplacement(side, b.u)) : c.anchor[s];
+    const Vec3 lever_pt = b.pose.Apply(x);
+    const Vec3 arm = b.pose.Rotate(c.touch[s]);  // to where the rest surfaces touch (Contact::touch)
+    if (b.articulation < 0) {
+      // fixed or kinematic: its prescribed motion over the step
+      slip += side.sign * (lever_pt - b.pose_prev.Apply(x));
+      continue;
+    }
+    const Articulation& a = w.articulations[b.articulation];
+    // Free slip of the material point, linearised where the contact response is (at
+    // the free-motion configuration): J dq_free, not the finite difference
+    // x(q_free) - x(q_prev). The step ends at q_free + dq with the solver taking that
+    // as J (dq_free + dq); the finite difference would add the curvature term
+    // 1/2 dq_free^T H dq_free, which does not vanish when the motor's pull (dq_free)
+    // and the contact's push (dq) cancel in a steady hold: a finger pressing with
+    // 2.6e-3 rad of free motion per step made the paper's box slide 0.8 mm/s in
+    // what the solver took for sticking contacts. Linearised, the error is
+    // dq_total^T H dq_free, zero when the hold is steady. The gap stays the
+    // position-level one from collision detection (its error is not integrated).
+    if (a.finger < 0) {
+      // a free body: its lever arm, J applied in place (core/contact_jacobian.h)
+      const Vec3 lever = lever_pt - b.pose.t;
+      const Vec3 spin = arm.cross(n);
+      side.lever = lever;
+      side.spin = spin;
+      slip += side.sign * FreeSideMotion(a.dq_free, lever);
+      normal_turn += side.sign * a.dq_free.tail<3>().dot(spin);
+      AddFreeSideBlock(a, lever, spin, n, t1, t2, &row.w_diag);
+      continue;
+    }
+    Eigen::Matrix<double, 3, 6> J;
+    J.leftCols<4>() = FingerPointJacobian(w.hand.fingers[a.finger].kin, lever_pt, b.finger_link);
+    J.rightCols<2>().setZero();
+    // the hand's own (prescribed) motion carries the finger
+    const Vec3 carried = lever_pt - w.hand.pose_prev.Apply(w.hand.pose.ApplyInverse(lever_pt));
+    slip += side.sign * (carried + J * a.dq_free);
+    side.jacobian = jacobian++;
+    SideJacobian& jac = w.side_jacobians[side.jacobian];
+    jac.h = side.sign * frame * J;
+    if (!c.touch[s].isZero()) {
+      // the normal row at the touching point
+      Eigen::Matrix<double, 1, 6> jn = Eigen::Matrix<double, 1, 6>::Zero();
+      jn.leftCols<4>() =
+          n.transpose() * FingerPointJacobian(w.hand.fingers[a.finger].kin, lever_pt + arm, b.finger_link);
+      normal_turn += side.sign * (jn - n.transpose() * J) * a.dq_free;
+      jac.h.row(0) = side.sign * jn;
+    }
+    jac.g = a.a_inv * jac.h.transpose();
+    row.w_diag += jac.h * jac.g;
+  }
+  row.world_point = 0.5 * (world_pt[0] + world_pt[1]);
+  row.q = Vec3(c.gap, t1.dot(slip), t2.dot(slip));
+  // the free motion's share taken out (the normal's at the touching point); deformation added below
+  row.gap_start = c.gap - n.dot(slip) - normal_turn;
+  row.held_back = 0.0;
+  row.mu = w.Friction(c.body[0], c.body[1]);
+}
+
+// finger sides of contact c: the Jacobians its row keeps
+int FingerSides(const World& w, const Contact& c) {
+  int n = 0;
+  for (int s = 0; s < 2; ++s) {
+    const Body& b = w.bodies[c.body[s]];
+    n += b.articulation >= 0 && w.articulations[b.articulation].finger >= 0 ? 1 : 0;
+  }
+  return n;
+}
+
 }  // namespace
 
 void BuildContactSpace(World& w) {
@@ -144,123 +273,11 @@ void BuildContactSpace(World& w) {
   w.side_inf_phi.clear();
   // rigid part: frames, free slip of the material points, Jacobian rows, W_rigid,cc
   for (const Contact& c : w.contacts.items) {
-    // built in place (the buffer is reserved by Finalize): a row is ~1.3 kB
-    ContactRow& row = w.rows.emplace_back();
-    row.contact = c;
-    const Vec3 n = c.normal;
-    const Vec3 t1 = AnyPerpendicular(n);
-    const Vec3 t2 = n.cross(t1);
-    Mat3 frame;  // read back below from here, not from the row just written
-    frame.row(0) = n;
-    frame.row(1) = t1;
-    frame.row(2) = t2;
-    row.frame = frame;
-    Vec3 world_pt[2];
-    Vec3 slip = Vec3::Zero();
-    double normal_turn = 0.0;  // what the free motion adds to the normal slip at the touching points
-    row.w_diag.setZero();
-    // the same contact in the last step, if any
-    row.prev = prev_rows.Find(c.key);
-    for (int s = 0; s < 2; ++s) {
-      const Body& b = w.bodies[c.body[s]];
-      ContactSide& side = row.side[s];
-      side.body = c.body[s];
-      side.sign = s == 0 ? 1.0 : -1.0;
-      world_pt[s] = b.pose.Apply(c.anchor[s]);
-      side.articulation = b.articulation;
-      side.jacobian = -1;
-      side.count = 0;
-      side.inf_begin = side.inf_count = 0;
-      side.w_deform = 0.0;
-      // eq. 8 weights of the contact point over the control points (deformable bodies):
-      // the query side's contact point is the control point itself
-      if (b.deform.enabled()) {
-        if (s == 0) {
-          side.count = 1;
-          side.idx[0] = c.leaf;
-          side.w[0] = 1.0;
-          side.weights_at = c.anchor[0];
-        } else if (c.surface_leaf >= 0) {
-          const ContactSide* ps = row.prev >= 0 ? &w.rows_prev[row.prev].side[1] : nullptr;
-          const double tol = w.params.reuse_anchor_tolerance * b.deform.spacing();
-          if (ps && ps->body == side.body && ps->count > 0 && w.rows_prev[row.prev].contact.surface_leaf == c.surface_leaf &&
-              (c.anchor[1] - ps->weights_at).squaredNorm() <= tol * tol) {
-            // the anchor has barely moved: the last step's interpolation (bit for bit when
-            // the anchor is unchanged, and then its merged influence is reused below)
-            side.count = ps->count;
-            std::copy(ps->idx, ps->idx + ps->count, side.idx);
-            std::copy(ps->w, ps->w + ps->count, side.w);
-            side.weights_at = ps->weights_at;
-            ++w.profile.work.weights_reused;
-          } else {
-            side.count = b.deform.Interpolate(c.anchor[1], c.surface_leaf, side.idx, side.w, ContactSide::kMaxWeights);
-            side.weights_at = c.anchor[1];
-          }
-        }
-      }
-      // The material point: on a deformable body, the rest anchor displaced by u. The
-      // body's rotation turns it where it is, so the Jacobian's lever arm ends there. With
-      // the arm to the rest anchor instead, a contact torque that turns a fingertip by
-      // dtheta per step moves its squashed contact points by dtheta x R u unseen by the
-      // solver (0.2 um per step in the pinch, u = 0.8 mm): a grasp the solver holds in
-      // sticking friction creeps. u is the last step's displacement, which this step's
-      // stays close to; what is left, dtheta x (u_new - u), vanishes in a steady hold.
-      const Vec3 x = side.count > 0 ? Vec3(c.anchor[s] + SideDisplacement(side, b.u)) : c.anchor[s];
-      const Vec3 lever_pt = b.pose.Apply(x);
-      const Vec3 arm = b.pose.Rotate(c.touch[s]);  // to where the rest surfaces touch (Contact::touch)
-      if (b.articulation < 0) {
-        // fixed or kinematic: its prescribed motion over the step
-        slip += side.sign * (lever_pt - b.pose_prev.Apply(x));
-        continue;
-      }
-      const Articulation& a = w.articulations[b.articulation];
-      // Free slip of the material point, linearised where the contact response is (at
-      // the free-motion configuration): J dq_free, not the finite difference
-      // x(q_free) - x(q_prev). The step ends at q_free + dq with the solver taking that
-      // as J (dq_free + dq); the finite difference would add the curvature term
-      // 1/2 dq_free^T H dq_free, which does not vanish when the motor's pull (dq_free)
-      // and the contact's push (dq) cancel in a steady hold: a finger pressing with
-      // 2.6e-3 rad of free motion per step made the paper's box slide 0.8 mm/s in
-      // what the solver took for sticking contacts. Linearised, the error is
-      // dq_total^T H dq_free, zero when the hold is steady. The gap stays the
-      // position-level one from collision detection (its error is not integrated).
-      if (a.finger < 0) {
-        // a free body: its lever arm, J applied in place (core/contact_jacobian.h)
-        const Vec3 lever = lever_pt - b.pose.t;
-        const Vec3 spin = arm.cross(n);
-        side.lever = lever;
-        side.spin = spin;
-        slip += side.sign * FreeSideMotion(a.dq_free, lever);
-        normal_turn += side.sign * a.dq_free.tail<3>().dot(spin);
-        AddFreeSideBlock(a, lever, spin, n, t1, t2, &row.w_diag);
-        continue;
-      }
-      Eigen::Matrix<double, 3, 6> J;
-      J.leftCols<4>() = FingerPointJacobian(w.hand.fingers[a.finger].kin, lever_pt, b.finger_link);
-      J.rightCols<2>().setZero();
-      // the hand's own (prescribed) motion carries the finger
-      const Vec3 carried = lever_pt - w.hand.pose_prev.Apply(w.hand.pose.ApplyInverse(lever_pt));
-      slip += side.sign * (carried + J * a.dq_free);
-      side.jacobian = static_cast<int>(w.side_jacobians.size());
-      SideJacobian& jac = w.side_jacobians.emplace_back();
-      jac.h = side.sign * frame * J;
-      if (!c.touch[s].isZero()) {
-        // the normal row at the touching point
-        Eigen::Matrix<double, 1, 6> jn = Eigen::Matrix<double, 1, 6>::Zero();
-        jn.leftCols<4>() =
-            n.transpose() * FingerPointJacobian(w.hand.fingers[a.finger].kin, lever_pt + arm, b.finger_link);
-        normal_turn += side.sign * (jn - n.transpose() * J) * a.dq_free;
-        jac.h.row(0) = side.sign * jn;
-      }
-      jac.g = a.a_inv * jac.h.transpose();
-      row.w_diag += jac.h * jac.g;
-    }
-    row.world_point = 0.5 * (world_pt[0] + world_pt[1]);
-    row.q = Vec3(c.gap, t1.dot(slip), t2.dot(slip));
-    // the free motion's share taken out (the normal's at the touching point); deformation added below
-    row.gap_start = c.gap - n.dot(slip) - normal_turn;
-    row.held_back = 0.0;
-    row.mu = w.Friction(c.body[0], c.body[1]);
+    ContactRow& row = w.rows.emplace_back();  // reserved by Finalize: a row is ~1.3 kB, built in place
+    row.prev = prev_rows.Find(c.key);         // the same contact in the last step, if any
+    const int jacobian = static_cast<int>(w.side_jacobians.size());
+    w.side_jacobians.resize(jacobian + FingerSides(w, c));  // reserved: two a contact at most
+    BuildRigidRow(w, c, row, jacobian, &w.profile.work.weights_reused);
     ++w.profile.work.w_blocks_built;
   }
   // the finger joints near a limit: rows of the same solve (core/joint_limits.cpp)
