@@ -105,7 +105,7 @@ Stage RunStage(SyntheticDrive& d, int box, double ratio) {
 // a held state within Coulomb's law both ways: static (the weight, 1.47 N, balanced
 // to the solver's 1e-4), the step's forces within mu, and mu* no larger than theirs
 bool WithinCoulomb(const Stage& st) {
-  return Static(st.end) && st.step_ratio <= st.mu * (1.0 + 1e-6) && st.end.mu <= st.step_ratio * (1.0 + 1e-3);
+  return Settled(st.end, st.step_ratio) && st.step_ratio <= st.mu * (1.0 + 1e-6);
 }
 
 struct Grasp {
