@@ -685,10 +685,25 @@ PairGeometry FaceOnEdge(const Vec3& n_s, const Vec3& n_q) {
   return {-n_q, Vec3::Zero(), true};
 }
 
+// The MLS surface at the foot agrees with its leaf's flat patch to this cosine
+// (0.08 degrees): the foot lies on a plane of S, whose normal is then the common
+// normal whatever touches it (a face's interior: the two agree to rounding).
+constexpr double kOnPlaneCos = 1.0 - 1e-6;
+
+// Whether the foot lies where S is planar: its MLS normal is the flat patch's there.
+// On an edge's rounding the MLS normal has turned from the patch's.
+bool OnPlane(const MlsPatch& ps, const MlsProjection& proj) {
+  return proj.normal.dot(ps.NormalBelow(proj.point)) > kOnPlaneCos;
+}
+
 // The contact normal of query leaf lq (Q) projected onto S near leaf ls, and the
 // shift from the foot to where the surfaces touch, in S's frame: the common normal
 // from both leaves' patches; a face's point (Q flat) against an edge or a flat
-// foot takes the face's normal (FaceOnEdge); the foot's normal (no shift) when a
+// foot takes the face's normal (FaceOnEdge), unless the foot lies on a plane of S
+// (OnPlane): a face of S touched by anything pushes along its own normal. A block
+// resting on its MLS rims, tilted 0.2 degrees on a slab, otherwise took its own
+// tilted face's normal, and on a slope 1 % past the friction angle slid at 0.69 of
+// g (sin a - mu cos a); the foot's normal (no shift) when a
 // curved Q's leaf or the foot's leaf has no patch. A face's normal is the common
 // normal whatever Q's shape; a curved Q on it touches it at Q's lowest point,
 // where the shift goes.
@@ -704,7 +719,8 @@ PairGeometry PairNormal(const SphereTree& tq, int lq, const Pose& q_to_s, const 
   const bool face_q = pq ? flat(pq->c, pq->h) : tq.leaf_flatness(lq) > kFlatCos;
   if (face_q && (!ps || flat(ps->c, ps->h))) {
     const Vec3 n_q = pq ? pq->NormalBelow(tq.control_point(lq)) : tq.leaf_normal(lq);
-    return FaceOnEdge(proj.normal, q_to_s.R * n_q);
+    const PairGeometry g = FaceOnEdge(proj.normal, q_to_s.R * n_q);
+    return !g.beside && ps && OnPlane(*ps, proj) ? foot : g;
   }
   if (!pq || !ps) return foot;
   const Vec3 n_q = q_to_s.R * pq->NormalBelow(tq.control_point(lq));

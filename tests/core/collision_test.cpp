@@ -972,6 +972,46 @@ namespace {
 // incline). The edge rule leaves those contacts to the rim's own points on the
 // slab's flat face: resting flat at gap 0, no slab point is deeper than a few um in
 // the cube, and the cube still stands on its whole base, corners included.
+// A cube resting tilted on a slab (here by 0.2 degrees, as it rests on its MLS rims'
+// bulges): its points whose feet lie on the slab's flat face push along the slab's
+// normal, not along the cube's own tilted face normal. With the cube's normal, a
+// block on a slope 1 % past the friction angle slid at 0.69 of the analytic
+// acceleration (the validation's incline_slab cases, sampling seed 3).
+TEST(Collision, PointsOnAFacesInteriorTakeThatFacesNormal) {
+  ShapeDesc cube, slab;
+  cube.type = slab.type = EShape::Box;
+  cube.half_extents = Vec3::Constant(0.02);
+  slab.half_extents = Vec3(0.08, 0.04, 0.005);
+  auto fc = Make(cube, 3000, 400, 21);
+  auto fs = Make(slab, 24000, 3000, 22);
+  const double tilt = 0.2 * M_PI / 180.0;
+  const Pose pc = Pose::FromAxisAngle(Vec3::UnitY(), tilt, Vec3(0.01, 0.003, 0.02));
+  const Pose ps = Pose::Translation(Vec3(0, 0, -0.005));  // top face at z = 0
+  for (const bool rule : {false, true}) {
+    CollisionParams params;
+    params.edge_rule = rule;
+    int count = 0;
+    const auto up = [](const Contact&) { return Vec3(Vec3::UnitZ()); };
+    CollisionStats stats;
+    // the cube's points only: body 0's contacts on body 1
+    CollisionScratch scratch;
+    scratch.Reserve(3000, 200000);
+    ContactBuffer buf;
+    buf.Reserve(200000);
+    CollidePair(0, fc->shape(), pc, 1, fs->shape(), ps, params, &scratch, &buf, &stats);
+    double worst = 0.0;
+    for (const Contact& c : buf.items) {
+      if (c.body[0] != 0) continue;
+      ++count;
+      worst = std::max(worst, std::acos(std::clamp(c.normal.dot(up(c)), -1.0, 1.0)) * 180.0 / M_PI);
+    }
+    std::printf("cube tilted 0.2 deg on a slab (edge rule %d): %d of its points, worst normal %.2e deg\n", rule, count,
+                worst);
+    EXPECT_GT(count, 5) << rule;
+    EXPECT_LT(worst, 0.01) << rule;  // the cube's face normal is 0.2 degrees off
+  }
+}
+
 TEST(Collision, EdgeRuleLeavesAnEdgesContactsToItsOwnPoints) {
   ShapeDesc cube, slab;
   cube.type = slab.type = EShape::Box;
