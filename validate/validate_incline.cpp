@@ -4,9 +4,12 @@
 // - the analytic plane (only the block's control points touch it: no contact mode);
 // - a rigid box slab tilted the same way, in both contact modes (two-pass: both
 //   bodies' control points; one-pass: the block's only, on the slab's MLS surface).
+//   Each slab case is the worst of three samplings of the block (kSlabSeeds).
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
+#include <iterator>
 #include <string>
 
 #include "scene/code_scenes.h"
@@ -37,7 +40,7 @@ void AddSurface(World& w, ESurface surface, const Pose& plane) {
 // angle, it slid 8 cm before the timing began and ran off the slab's end during
 // it). On the unbounded plane it lands at mu: a cube held at 42 degrees (mu 0.8,
 // 1.1 atan(mu)) is near its tipping angle and tips over on landing.
-InclineRun RunIncline(double angle, double mu, ESurface surface, double seconds, bool quick) {
+InclineRun RunIncline(double angle, double mu, ESurface surface, double seconds, bool quick, uint64_t seed) {
   World w;
   w.params.dt = 1e-3;
   w.params.default_friction = surface == ESurface::Plane ? mu : std::max(mu, 1.2 * std::tan(angle));
@@ -50,6 +53,7 @@ InclineRun RunIncline(double angle, double mu, ESurface surface, double seconds,
   b.shape.half_extents = Vec3::Constant(0.02);
   b.geometry.points = quick ? 3000 : 6000;
   b.geometry.control_points = quick ? 400 : 800;
+  b.geometry.seed = seed;
   b.mass = 0.1;
   // a little above the surface (sharp edges' MLS surface bulges by a fraction of the spacing)
   const double uphill = surface == ESurface::Plane ? 0.0 : -0.05;
@@ -75,27 +79,50 @@ InclineRun RunIncline(double angle, double mu, ESurface surface, double seconds,
   return r;
 }
 
-// one tilt: a stick case below atan(mu), a slide case above
+// The block's sampling seeds of a case. On the slab, the block rests on its MLS
+// rims' bulges, tilted by an angle its sampling decides (0.014 to 0.2 degrees for
+// seeds 1 to 3), and the slab's contacts must push along the slab's normal whatever
+// that tilt (docs/collision.md, "A face's point on a face's interior"): each slab
+// case is the worst of three samplings. The plane's normal is exact: one.
+constexpr uint64_t kSlabSeeds[] = {1, 2, 3};
+
+// one tilt: a stick case below atan(mu), a slide case above; the worst over the seeds
 ValidationResult Judge(double factor, double mu, ESurface surface, bool quick) {
   const double a = factor * std::atan(mu);
   // on the slab the block must stay on it: 0.3 s of sliding covers at most 2 cm
   const double seconds = surface == ESurface::Plane ? 1.0 : 0.3;
-  const InclineRun run = RunIncline(a, mu, surface, seconds, quick);
+  const int seeds = surface == ESurface::Plane ? 1 : static_cast<int>(std::size(kSlabSeeds));
+  const double expected = kG * (std::sin(a) - mu * std::cos(a));
+  double worst = 0.0, worst_accel = 0.0, worst_slide = 0.0;
+  uint64_t worst_seed = kSlabSeeds[0];
+  bool finite = true;
+  for (int k = 0; k < seeds && !StopRequested(); ++k) {
+    const InclineRun run = RunIncline(a, mu, surface, seconds, quick, kSlabSeeds[k]);
+    finite &= run.finite;
+    const double e = factor < 1.0 ? run.slide : std::abs(run.accel - expected) / expected;
+    if (k == 0 || !(e <= worst)) {
+      worst = e;
+      worst_accel = run.accel;
+      worst_slide = run.slide;
+      worst_seed = kSlabSeeds[k];
+    }
+  }
   const std::string where = surface == ESurface::Plane ? "plane" : "slab";
-  char name[64], d[256];
+  char name[64], d[320], of[64] = "";
+  if (seeds > 1)
+    std::snprintf(of, sizeof of, " (the worst of %d samplings: seed %llu)", seeds,
+                  static_cast<unsigned long long>(worst_seed));
   std::snprintf(name, sizeof name, "incline_%s_mu%.1f_%.2f", where.c_str(), mu, factor);
   if (factor < 1.0) {
-    std::snprintf(d, sizeof d, "tilt %.2f atan(mu), mu %.1f, %s %s: slid %.3g m in %.1f s (limit 1e-6 m)", factor, mu,
-                  where.c_str(), ModeName(surface), run.slide, seconds);
-    return Result(name, run.finite ? run.slide : NAN, 1e-6, "m", d, ModeName(surface));
+    std::snprintf(d, sizeof d, "tilt %.2f atan(mu), mu %.1f, %s %s: slid %.3g m in %.1f s (limit 1e-6 m)%s", factor,
+                  mu, where.c_str(), ModeName(surface), worst_slide, seconds, of);
+    return Result(name, finite ? worst : NAN, 1e-6, "m", d, ModeName(surface));
   }
-  const double expected = kG * (std::sin(a) - mu * std::cos(a));
-  const double rel = std::abs(run.accel - expected) / expected;
   std::snprintf(d, sizeof d,
-                "tilt %.2f atan(mu), mu %.1f, %s %s: acceleration %.4f m/s^2, expected g(sin a - mu cos a) = %.4f",
-                factor, mu, where.c_str(), ModeName(surface), run.accel, expected);
+                "tilt %.2f atan(mu), mu %.1f, %s %s: acceleration %.4f m/s^2, expected g(sin a - mu cos a) = %.4f%s",
+                factor, mu, where.c_str(), ModeName(surface), worst_accel, expected, of);
   // the slide just above the friction angle is slow (0.04 m/s^2 at mu 0.4): 5 %; 2 % above
-  return Result(name, run.finite ? rel : NAN, factor < 1.05 ? 0.05 : 0.02, "relative", d, ModeName(surface));
+  return Result(name, finite ? worst : NAN, factor < 1.05 ? 0.05 : 0.02, "relative", d, ModeName(surface));
 }
 
 }  // namespace
