@@ -8,6 +8,7 @@
 #include <map>
 #include <random>
 #include <set>
+#include <utility>
 
 #include <Eigen/Eigenvalues>
 
@@ -962,28 +963,22 @@ TEST(Collision, LineContactsTouchWithinTheBodies) {
 
 namespace gs {
 namespace {
-// The paper's curvature rejection reads the border of the leaf the traversal
-// coupled, not of the leaf the projection's foot ended in (which holds the foot by
-// construction: the rule could never fire). A query above leaf B, projected while
-// coupled to a leaf A far from B, slides out of A's border and is rejected.
-// Two-pass box on box: the MLS quadric of a cube's bottom face overshoots below it
-// along its edges (a lip up to 0.09 spacing), and the slab's points under the rim,
-// projected onto it, held the cube up on its rim (it rocked, and slid 14% fast on an
-// incline). The edge rule leaves those contacts to the rim's own points on the
-// slab's flat face: resting flat at gap 0, no slab point is deeper than a few um in
-// the cube, and the cube still stands on its whole base, corners included.
+// The incline's 4 cm cube (3,000 / 400 points) and 16 x 8 x 1 cm slab (24,000 / 3,000).
+std::pair<std::unique_ptr<Fixture>, std::unique_ptr<Fixture>> CubeAndSlab() {
+  ShapeDesc cube, slab;
+  cube.type = slab.type = EShape::Box;
+  cube.half_extents = Vec3::Constant(0.02);
+  slab.half_extents = Vec3(0.08, 0.04, 0.005);
+  return {Make(cube, 3000, 400, 21), Make(slab, 24000, 3000, 22)};
+}
+
 // A cube resting tilted on a slab (here by 0.2 degrees, as it rests on its MLS rims'
 // bulges): its points whose feet lie on the slab's flat face push along the slab's
 // normal, not along the cube's own tilted face normal. With the cube's normal, a
 // block on a slope 1 % past the friction angle slid at 0.69 of the analytic
 // acceleration (the validation's incline_slab cases, sampling seed 3).
 TEST(Collision, PointsOnAFacesInteriorTakeThatFacesNormal) {
-  ShapeDesc cube, slab;
-  cube.type = slab.type = EShape::Box;
-  cube.half_extents = Vec3::Constant(0.02);
-  slab.half_extents = Vec3(0.08, 0.04, 0.005);
-  auto fc = Make(cube, 3000, 400, 21);
-  auto fs = Make(slab, 24000, 3000, 22);
+  auto [fc, fs] = CubeAndSlab();
   const double tilt = 0.2 * M_PI / 180.0;
   const Pose pc = Pose::FromAxisAngle(Vec3::UnitY(), tilt, Vec3(0.01, 0.003, 0.02));
   const Pose ps = Pose::Translation(Vec3(0, 0, -0.005));  // top face at z = 0
@@ -1012,13 +1007,14 @@ TEST(Collision, PointsOnAFacesInteriorTakeThatFacesNormal) {
   }
 }
 
+// Two-pass box on box: the MLS quadric of a cube's bottom face overshoots below it
+// along its edges (a lip up to 0.09 spacing), and the slab's points under the rim,
+// projected onto it, held the cube up on its rim (it rocked, and slid 14% fast on an
+// incline). The edge rule leaves those contacts to the rim's own points on the
+// slab's flat face: resting flat at gap 0, no slab point is deeper than a few um in
+// the cube, and the cube still stands on its whole base, corners included.
 TEST(Collision, EdgeRuleLeavesAnEdgesContactsToItsOwnPoints) {
-  ShapeDesc cube, slab;
-  cube.type = slab.type = EShape::Box;
-  cube.half_extents = Vec3::Constant(0.02);
-  slab.half_extents = Vec3(0.08, 0.04, 0.005);
-  auto fc = Make(cube, 3000, 400, 21);
-  auto fs = Make(slab, 24000, 3000, 22);
+  auto [fc, fs] = CubeAndSlab();
   CollisionScratch scratch;
   scratch.Reserve(3000, 200000);
   ContactBuffer contacts;
@@ -1054,6 +1050,10 @@ TEST(Collision, EdgeRuleLeavesAnEdgesContactsToItsOwnPoints) {
   EXPECT_LT(deepest[true], 10e-6) << "the slab's points, with the rule";
 }
 
+// The paper's curvature rejection reads the border of the leaf the traversal
+// coupled, not of the leaf the projection's foot ended in (which holds the foot by
+// construction: the rule could never fire). A query above leaf B, projected while
+// coupled to a leaf A far from B, slides out of A's border and is rejected.
 TEST(Collision, CurvatureRejectionReadsTheCoupledLeafsBorder) {
   auto fs = Make(Ball(0.01), 3000, 400, 21);
   const SphereTree& t = fs->geom.tree;
