@@ -80,8 +80,8 @@ InclineRun RunIncline(double angle, double mu, ESurface surface, double seconds,
 }
 
 // The block's sampling seeds of a case. On the slab, the block rests on its MLS
-// rims' bulges, tilted by an angle its sampling decides (0.014 to 0.2 degrees for
-// seeds 1 to 3), and the slab's contacts must push along the slab's normal whatever
+// rims' bulges, tilted by an angle its sampling decides (0.014 degrees with seed
+// 2, 0.2 with seed 3), and the slab's contacts must push along the slab's normal whatever
 // that tilt (docs/collision.md, "A face's point on a face's interior"): each slab
 // case is the worst of three samplings. The plane's normal is exact: one.
 constexpr uint64_t kSlabSeeds[] = {1, 2, 3};
