@@ -193,6 +193,25 @@ NsgsResult SolveNormalsOnly(WorldDelassus& op, Vec3* r, const NsgsParams& p) {
   return res;
 }
 
+// Newton from the forces in *r; when that run ends short of its tolerance, a second
+// run from zero forces, kept when clearly better. On the statically indeterminate
+// contacts of a heavy box landing on a light one (W of rank 12 against 180 rows), a
+// run from the unconverged NSGS forces can stall at its cap where one from zero
+// converges (docs/solver.md, "Newton from a second start").
+FcNewtonResult NewtonFromTwoStarts(const FcProblem& p, const FcNewtonParams& np, Eigen::VectorXd* r) {
+  const FcNewtonResult first = SolveFcNewton(p, np, r);
+  if (first.converged) return first;
+  Eigen::VectorXd zero = Eigen::VectorXd::Zero(r->size());
+  FcNewtonResult second = SolveFcNewton(p, np, &zero);
+  // kept when it converged or halved the error: between two near-equal unconverged
+  // runs, a last-bit difference (every mass x1000) must not change which one is kept
+  if (!(second.converged || second.error < 0.5 * first.error)) return first;
+  *r = zero;
+  second.iterations += first.iterations;
+  second.factorizations += first.factorizations;
+  return second;
+}
+
 // A step whose NSGS stopped short of the tolerance at its sweep cap (or stalled)
 // continues with the proximal semi-smooth Newton method (fc_newton.h) from the
 // NSGS forces, on the step's Delassus matrix assembled column by column: Gauss-
@@ -229,7 +248,7 @@ void ContinueWithNewton(World& w, WorldDelassus& op, const NsgsParams& params, N
     const double den = std::max({p.q.norm(), r.norm(), (p.W * r + p.q).norm(), 1e-300});
     np.tolerance = params.tolerance * GapScale(params) / den;
   }
-  const FcNewtonResult nr = SolveFcNewton(p, np, &r);
+  const FcNewtonResult nr = NewtonFromTwoStarts(p, np, &r);
   r = r.cwiseQuotient(d);
   std::vector<Vec3>& old = w.solve_r;
   for (int c = 0; c < n; ++c) {

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <utility>
 #include <vector>
 
 #include "scene/code_scenes.h"
@@ -26,7 +27,8 @@ constexpr double kMu = 0.5;
 struct StackRun {
   std::vector<Vec3> top, bottom;  // centres after each step
   std::vector<int> sweeps;        // Gauss-Seidel sweeps of each step
-  double walk = 0.0;              // m/s: the faster box's horizontal speed after settling
+  double walk = 0.0;              // m/s: the faster box's horizontal speed over the run's second half
+  double settled = 0.0;           // s: when the boxes last moved more than 10 nm horizontally in a step
   double sag = 0.0;               // m: how far the top box sank over the run
   double jump = 0.0;              // m: the most a box rose above where it ends
   int unconverged = 0;
@@ -35,13 +37,14 @@ struct StackRun {
   bool finite = true;
 };
 
-BodySpec StackBox(const char* name, double mass, const Vec3& at) {
+BodySpec StackBox(const char* name, double mass, const Vec3& at, uint64_t seed) {
   BodySpec b;
   b.name = name;
   b.shape.type = EShape::Box;
   b.shape.half_extents = Vec3::Constant(kHalf);
   b.geometry.points = 1500;
   b.geometry.control_points = 200;
+  b.geometry.seed = seed;
   b.mass = mass;
   b.pose = Pose::Translation(at);
   return b;
@@ -49,16 +52,18 @@ BodySpec StackBox(const char* name, double mass, const Vec3& at) {
 
 /// The top box weighs `ratio` times the bottom one; every mass times `scale`.
 /// Default solver settings but the sweep cap. Settles for `settle` s, then runs
-/// `seconds` s more. `apart`: how far above touching each box is set (m).
-StackRun RunStack(double ratio, double scale, double settle, double seconds, int max_sweeps, double apart = 3e-4) {
+/// `seconds` s more. `apart`: how far above touching each box is set (m); `seed`:
+/// both boxes' sampling seed.
+StackRun RunStack(double ratio, double scale, double settle, double seconds, int max_sweeps, double apart = 3e-4,
+                  uint64_t seed = 1) {
   World w;
   w.params.dt = 1e-3;
   w.params.solver.max_iterations = max_sweeps;
   w.params.default_friction = kMu;
   AddBody(w, PlaneSpec("table", Pose()));
   // a little apart by default (sharp edges' MLS surface bulges by a fraction of the spacing)
-  const int bottom = AddBody(w, StackBox("bottom", kLight * scale, Vec3(0, 0, kHalf + apart)));
-  const int top = AddBody(w, StackBox("top", ratio * kLight * scale, Vec3(kOffset, 0, 3 * kHalf + 2 * apart)));
+  const int bottom = AddBody(w, StackBox("bottom", kLight * scale, Vec3(0, 0, kHalf + apart), seed));
+  const int top = AddBody(w, StackBox("top", ratio * kLight * scale, Vec3(kOffset, 0, 3 * kHalf + 2 * apart), seed));
   w.Finalize();
   StackRun r;
   const int settle_steps = static_cast<int>(std::lround(settle / w.params.dt));
@@ -84,7 +89,15 @@ StackRun RunStack(double ratio, double scale, double settle, double seconds, int
   for (const Vec3& p : r.bottom) bottom_high = std::max(bottom_high, p[2]);
   r.jump = std::max(top_high - w.bodies[top].pose.t[2], bottom_high - w.bodies[bottom].pose.t[2]);
   const auto horizontal = [](const Vec3& d) { return std::hypot(d[0], d[1]); };
-  r.walk = std::max(horizontal(w.bodies[top].pose.t - top0), horizontal(w.bodies[bottom].pose.t - bottom0)) / seconds;
+  // a walk is a steady drift; the landing's rocking on the MLS faces' bulges is not
+  // (it decays within 0.5 s), so the walk is read over the second half of the run
+  const size_t mid = settle_steps + (r.top.size() - settle_steps) / 2, last = r.top.size() - 1;
+  if (r.top.size() > static_cast<size_t>(settle_steps) + 2)
+    r.walk = std::max(horizontal(r.top[last] - r.top[mid]), horizontal(r.bottom[last] - r.bottom[mid])) /
+             (static_cast<double>(last - mid) * w.params.dt);
+  for (size_t i = 1; i < r.top.size(); ++i)
+    if (std::max(horizontal(r.top[i] - r.top[i - 1]), horizontal(r.bottom[i] - r.bottom[i - 1])) > 1e-8)
+      r.settled = static_cast<double>(i + 1) * w.params.dt;
   r.sag = top0[2] - w.bodies[top].pose.t[2];
   return r;
 }
@@ -123,6 +136,12 @@ struct StackCase {
   int cap;
 };
 constexpr StackCase kStackCases[] = {{1.0, 100}, {10.0, 100}, {100.0, 100}, {1000.0, 100}};
+// Both boxes' sampling seeds; a case is the worst over them. The MLS faces bulge
+// where their sampling puts them, so where the stack rests and how long its landing
+// rocks depend on the seed (0.05 to 0.46 s over these three); with seed 3 at ratio
+// 1,000, a Newton run from the unconverged NSGS forces alone left the stack walking
+// 1.3e-4 m/s (core/solver.cpp NewtonFromTwoStarts).
+constexpr uint64_t kStackSeeds[] = {1, 3, 4};
 
 std::vector<ValidationResult> ValidateStack(const ValidationOptions& opt) {
   const double settle = opt.quick ? 0.3 : 0.5;
@@ -130,14 +149,24 @@ std::vector<ValidationResult> ValidateStack(const ValidationOptions& opt) {
   std::vector<ValidationResult> out;
   for (const StackCase& c : kStackCases) {
     if (StopRequested()) break;
-    const StackRun r = RunStack(c.ratio, 1.0, settle, seconds, c.cap);
-    char name[64], d[320];
+    StackRun r;
+    uint64_t worst_seed = kStackSeeds[0];
+    for (const uint64_t seed : kStackSeeds) {
+      if (StopRequested()) break;
+      StackRun s = RunStack(c.ratio, 1.0, settle, seconds, c.cap, 3e-4, seed);
+      if (seed == kStackSeeds[0] || !s.finite || (r.finite && s.walk > r.walk)) {
+        r = std::move(s);
+        worst_seed = seed;
+      }
+    }
+    char name[64], d[400];
     std::snprintf(name, sizeof name, "stack_ratio_%g", c.ratio);
     std::snprintf(d, sizeof d,
-                  "%g kg on %g kg, %g mm off-centre, mu %g, tolerance 1e-6, cap %d sweeps: walk %.3g m/s over %g s "
-                  "(limit 1e-6), sank %.3g m, %d unconverged steps, sweeps max %d, %d steps continued by Newton",
-                  c.ratio * kLight, kLight, 1e3 * kOffset, kMu, c.cap, r.walk, seconds, r.sag, r.unconverged,
-                  r.max_sweeps, r.newton_steps);
+                  "%g kg on %g kg, %g mm off-centre, mu %g, tolerance 1e-6, cap %d sweeps, worst of sampling seeds "
+                  "1, 3, 4 (seed %llu): walk %.3g m/s over the last %g s (limit 1e-6), last moved over 10 nm in a step at %.3g s, sank %.3g m, "
+                  "%d unconverged steps, sweeps max %d, %d steps continued by Newton",
+                  c.ratio * kLight, kLight, 1e3 * kOffset, kMu, c.cap, static_cast<unsigned long long>(worst_seed),
+                  r.walk, seconds / 2, r.settled, r.sag, r.unconverged, r.max_sweeps, r.newton_steps);
     out.push_back(Result(name, r.finite ? r.walk : NAN, 1e-6, "m/s", d));
   }
   // set on each other at their nominal heights, as a scene would write them: each box
